@@ -1,0 +1,44 @@
+// meniscus — the exceptions the library throws. Library code never exits the process.
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+namespace meniscus {
+
+/// A parameter is out of range or inconsistent with another (names the parameter and value).
+class InvalidParameter : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
+/// A file could not be read or parsed. `what()` names the file, the byte offset or line
+/// where the problem was found, and what was expected there.
+class FormatError : public std::runtime_error {
+ public:
+  /// `location` is e.g. "byte 1024" or "line 7"; may be empty for whole-file errors.
+  FormatError(const std::string& file, const std::string& location, const std::string& message)
+      : std::runtime_error(file + (location.empty() ? "" : ": " + location) + ": " + message),
+        file_(file), location_(location) {}
+  const std::string& file() const noexcept { return file_; }
+  const std::string& location() const noexcept { return location_; }
+
+ private:
+  std::string file_, location_;
+};
+
+/// The job would need more memory or a larger index range than the library supports; thrown
+/// before anything large is allocated.
+class ResourceError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// An input/output operation failed (cannot open, cannot write, disk full …).
+class IoError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+}  // namespace meniscus

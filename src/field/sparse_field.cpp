@@ -1,0 +1,11 @@
+#include "field/sparse_field.hpp"
+
+namespace meniscus {
+
+SparseField::SparseField(SampleLattice lattice, std::vector<uint64_t> block_keys, float background)
+    : lattice_(lattice), block_keys_(std::move(block_keys)), background_(background) {
+  values_.assign(block_keys_.size() * kBlockSamples, background);
+  index_.build(block_keys_);
+}
+
+}  // namespace meniscus

@@ -1,0 +1,99 @@
+// meniscus — block-sparse scalar field over a sample lattice (Museth 2013, "VDB", for the idea
+// of allocating only blocks near the surface). Blocks hold 512 samples: 8³ cells of a cubic
+// lattice (one sample per cell) or 4³ cells of the A15 lattice (8 samples per cell).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "grid/key_index.hpp"
+#include "meniscus/vec.hpp"
+
+namespace meniscus {
+
+/// Sample positions: sample s of cell c is at (c + offset(s)) · cell_size (world origin at 0).
+struct SampleLattice {
+  enum class Kind { cubic, a15 };
+  Kind kind = Kind::cubic;
+  float cell_size = 1;  ///< cubic: the voxel size h; a15: the tile period a = 2h
+
+  int samples_per_cell() const { return kind == Kind::cubic ? 1 : 8; }
+  int block_cells() const { return kind == Kind::cubic ? 8 : 4; }  ///< cells per block edge
+  Vec3f sample_offset(int s) const;                                 ///< in units of cell_size
+  Vec3f sample_position(Vec3i cell, int s) const {
+    const Vec3f o = sample_offset(s);
+    return Vec3f{float(cell.x) + o.x, float(cell.y) + o.y, float(cell.z) + o.z} * cell_size;
+  }
+};
+
+/// The A15 sub-cell sample offsets (marching-tiles.md), in units of the cell size.
+inline constexpr Vec3f kA15Samples[8] = {{0, 0, 0},     {0.5f, 0.5f, 0.5f}, {0.25f, 0.5f, 0},  {0.75f, 0.5f, 0},
+                                         {0, 0.25f, 0.5f}, {0, 0.75f, 0.5f},  {0.5f, 0, 0.25f}, {0.5f, 0, 0.75f}};
+
+inline Vec3f SampleLattice::sample_offset(int s) const {
+  return kind == Kind::cubic ? Vec3f{0, 0, 0} : kA15Samples[s];
+}
+
+inline constexpr int kBlockSamples = 512;
+
+/// A scalar field stored in 512-sample blocks. Block b covers cells
+/// [key_coords(b) · block_cells, key_coords(b) · block_cells + block_cells) on each axis; its
+/// samples are at values()[b·512 + local_index(cell - block origin, s)]. Samples in blocks that
+/// are not allocated read as `background()`.
+class SparseField {
+ public:
+  SparseField() = default;
+  /// Allocates the blocks with the given (sorted, unique) block coordinate keys (pack_coords),
+  /// every sample set to `background`.
+  SparseField(SampleLattice lattice, std::vector<uint64_t> block_keys, float background);
+
+  const SampleLattice& lattice() const { return lattice_; }
+  float background() const { return background_; }
+  std::size_t block_count() const { return block_keys_.size(); }
+  std::span<const uint64_t> block_keys() const { return block_keys_; }
+  Vec3i block_coords(std::size_t b) const { return unpack_coords(block_keys_[b]); }
+  /// First cell of block b.
+  Vec3i block_origin(std::size_t b) const {
+    const Vec3i c = block_coords(b);
+    const int n = lattice_.block_cells();
+    return {c.x * n, c.y * n, c.z * n};
+  }
+  std::span<float> block_values(std::size_t b) { return {values_.data() + b * kBlockSamples, kBlockSamples}; }
+  std::span<const float> block_values(std::size_t b) const {
+    return {values_.data() + b * kBlockSamples, kBlockSamples};
+  }
+  /// Index of a sample inside its block: cell-major, samples of one cell adjacent.
+  int local_index(Vec3i local_cell, int s) const {
+    const int n = lattice_.block_cells();
+    return ((local_cell.z * n + local_cell.y) * n + local_cell.x) * lattice_.samples_per_cell() + s;
+  }
+  /// Block index of the block with these block coordinates, or kNotFound.
+  uint32_t find_block(Vec3i block) const { return index_.find(pack_coords(block.x, block.y, block.z)); }
+  /// Block coordinates of the block that holds `cell`.
+  Vec3i block_of(Vec3i cell) const {
+    const int n = lattice_.block_cells();
+    auto div = [n](int32_t v) { return v >= 0 ? v / n : -((-v + n - 1) / n); };
+    return {div(cell.x), div(cell.y), div(cell.z)};
+  }
+  /// The field value at sample s of `cell` (background when its block is not allocated).
+  float value(Vec3i cell, int s) const {
+    const Vec3i b = block_of(cell);
+    const uint32_t i = find_block(b);
+    if (i == kNotFound) return background_;
+    const int n = lattice_.block_cells();
+    return values_[std::size_t(i) * kBlockSamples +
+                   local_index({cell.x - b.x * n, cell.y - b.y * n, cell.z - b.z * n}, s)];
+  }
+
+  std::size_t memory_bytes() const { return values_.size() * 4 + block_keys_.size() * 8 + index_.memory_bytes(); }
+
+ private:
+  SampleLattice lattice_;
+  std::vector<uint64_t> block_keys_;
+  std::vector<float> values_;
+  KeyIndex index_;
+  float background_ = 0;
+};
+
+}  // namespace meniscus

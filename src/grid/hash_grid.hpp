@@ -1,0 +1,92 @@
+// meniscus — uniform hashed grid over points (Edespong 2010 §3.1; Green 2008 "Particle
+// Simulation using CUDA"): points sorted by cell key, each occupied cell a [begin, end) range
+// of the sorted array. Cells are keyed by their unbounded integer coordinates (63-bit key), so
+// the domain size is not limited by a modulo hash.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <span>
+#include <utility>
+#include <vector>
+
+#include "grid/key_index.hpp"
+#include "meniscus/vec.hpp"
+
+namespace meniscus {
+
+class HashGrid {
+ public:
+  struct Nearest {
+    uint32_t index = kNotFound;  ///< index into sorted_points() (kNotFound: none found)
+    float dist2 = INFINITY;
+  };
+
+  HashGrid() = default;
+  /// Sorts the points by cell (parallel). `cell_size` > 0. Throws ResourceError when the points
+  /// span more cells than a 21-bit coordinate can hold.
+  HashGrid(std::span<const Vec3f> points, float cell_size);
+
+  float cell_size() const { return cell_size_; }
+  std::size_t size() const { return sorted_.size(); }
+  /// Points in cell order; `order()[i]` is the original index of `sorted_points()[i]`.
+  std::span<const Vec3f> sorted_points() const { return sorted_; }
+  std::span<const uint32_t> order() const { return order_; }
+  /// Occupied cells, sorted by key; cell c holds sorted points [cell_start[c], cell_start[c+1]).
+  std::span<const uint64_t> cell_keys() const { return cell_keys_; }
+  std::span<const uint32_t> cell_starts() const { return cell_starts_; }
+  Vec3i cell_min() const { return cell_min_; }
+  Vec3i cell_max() const { return cell_max_; }
+
+  Vec3i cell_of(Vec3f p) const {
+    const float inv = 1.0f / cell_size_;
+    return {int32_t(std::floor(p.x * inv)), int32_t(std::floor(p.y * inv)), int32_t(std::floor(p.z * inv))};
+  }
+  /// [begin, end) into sorted_points() of cell c (empty when unoccupied or out of range).
+  std::pair<uint32_t, uint32_t> cell_range(Vec3i c) const {
+    if (c.x < cell_min_.x || c.y < cell_min_.y || c.z < cell_min_.z || c.x > cell_max_.x ||
+        c.y > cell_max_.y || c.z > cell_max_.z)
+      return {0, 0};
+    const uint32_t i = index_.find(pack_coords(c.x, c.y, c.z));
+    if (i == kNotFound) return {0, 0};
+    return {cell_starts_[i], cell_starts_[i + 1]};
+  }
+
+  /// Calls f(sorted_index, dist2) for every point within distance r of p.
+  template <class F>
+  void for_each_within(Vec3f p, float r, F&& f) const {
+    const float r2 = r * r;
+    const Vec3i lo = cell_of(p - Vec3f{r, r, r}), hi = cell_of(p + Vec3f{r, r, r});
+    for (int32_t z = std::max(lo.z, cell_min_.z); z <= std::min(hi.z, cell_max_.z); ++z)
+      for (int32_t y = std::max(lo.y, cell_min_.y); y <= std::min(hi.y, cell_max_.y); ++y)
+        for (int32_t x = std::max(lo.x, cell_min_.x); x <= std::min(hi.x, cell_max_.x); ++x) {
+          const auto [b, e] = cell_range({x, y, z});
+          for (uint32_t i = b; i < e; ++i) {
+            const float d2 = length2(sorted_[i] - p);
+            if (d2 <= r2) f(i, d2);
+          }
+        }
+  }
+
+  /// The exact nearest point within max_radius of p (index kNotFound when there is none).
+  Nearest nearest(Vec3f p, float max_radius) const;
+  /// The exact nearest point, however far (kNotFound only for an empty grid).
+  Nearest nearest(Vec3f p) const;
+
+  std::size_t memory_bytes() const {
+    return sorted_.size() * (sizeof(Vec3f) + 4) + cell_keys_.size() * 12 + index_.memory_bytes();
+  }
+
+ private:
+  Nearest nearest_rings(Vec3f p, int max_ring, float max_dist2) const;
+
+  float cell_size_ = 1;
+  std::vector<Vec3f> sorted_;
+  std::vector<uint32_t> order_;
+  std::vector<uint64_t> cell_keys_;
+  std::vector<uint32_t> cell_starts_;
+  Vec3i cell_min_{}, cell_max_{-1, -1, -1};
+  KeyIndex index_;
+};
+
+}  // namespace meniscus

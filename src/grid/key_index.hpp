@@ -1,0 +1,82 @@
+// meniscus — a read-only open-addressing hash map from 64-bit keys to dense indices, built
+// once from a list of unique keys. Used to find hash-grid cells and field blocks in O(1).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "meniscus/vec.hpp"
+
+namespace meniscus {
+
+inline constexpr uint64_t kNoKey = ~uint64_t(0);
+inline constexpr uint32_t kNotFound = ~uint32_t(0);
+
+/// Packs signed lattice coordinates (each within ±2^20) into 63 bits, order-preserving in z,y,x.
+MENISCUS_HD constexpr uint64_t pack_coords(int32_t x, int32_t y, int32_t z) {
+  constexpr int64_t kOffset = int64_t(1) << 20;
+  return (uint64_t(int64_t(z) + kOffset) << 42) | (uint64_t(int64_t(y) + kOffset) << 21) |
+         uint64_t(int64_t(x) + kOffset);
+}
+MENISCUS_HD constexpr Vec3i unpack_coords(uint64_t key) {
+  constexpr int64_t kOffset = int64_t(1) << 20;
+  constexpr uint64_t kMask = (uint64_t(1) << 21) - 1;
+  return {int32_t(int64_t(key & kMask) - kOffset), int32_t(int64_t((key >> 21) & kMask) - kOffset),
+          int32_t(int64_t((key >> 42) & kMask) - kOffset)};
+}
+/// Largest |coordinate| pack_coords accepts.
+inline constexpr int32_t kMaxCoord = (1 << 20) - 2;
+
+MENISCUS_HD constexpr uint64_t mix64(uint64_t k) {
+  k ^= k >> 33;
+  k *= 0xff51afd7ed558ccdULL;
+  k ^= k >> 33;
+  k *= 0xc4ceb9fe1a85ec53ULL;
+  k ^= k >> 33;
+  return k;
+}
+
+class KeyIndex {
+ public:
+  KeyIndex() = default;
+  /// `keys` must be unique and must not contain kNoKey; key i maps to index i.
+  explicit KeyIndex(std::span<const uint64_t> keys) { build(keys); }
+
+  void build(std::span<const uint64_t> keys) {
+    std::size_t cap = 16;
+    while (cap < keys.size() * 2) cap <<= 1;
+    mask_ = cap - 1;
+    slots_.assign(cap, Slot{});
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      std::size_t slot = mix64(keys[i]) & mask_;
+      while (slots_[slot].key != kNoKey) slot = (slot + 1) & mask_;
+      slots_[slot] = {keys[i], uint32_t(i)};
+    }
+  }
+
+  /// Index of `key`, or kNotFound.
+  uint32_t find(uint64_t key) const {
+    if (slots_.empty()) return kNotFound;
+    std::size_t slot = mix64(key) & mask_;
+    for (;;) {
+      const Slot& s = slots_[slot];
+      if (s.key == key) return s.value;
+      if (s.key == kNoKey) return kNotFound;
+      slot = (slot + 1) & mask_;
+    }
+  }
+
+  std::size_t memory_bytes() const { return slots_.size() * sizeof(Slot); }
+
+ private:
+  // Key and value side by side: a lookup touches one cache line.
+  struct Slot {
+    uint64_t key = kNoKey;
+    uint32_t value = kNotFound;
+  };
+  std::vector<Slot> slots_;
+  std::size_t mask_ = 0;
+};
+
+}  // namespace meniscus

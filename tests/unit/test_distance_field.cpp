@@ -1,0 +1,64 @@
+// Tests of the sparse distance field against brute-force nearest distances.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "field/distance_field.hpp"
+
+namespace meniscus {
+namespace {
+
+void check_against_brute_force(SampleLattice::Kind kind) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<Vec3f> pts(300);
+  for (auto& p : pts) p = {u(rng), u(rng), 0.3f * u(rng)};
+  pts.push_back({6.0f, 6.0f, 6.0f});  // an isolated droplet far away
+  const float band = 0.35f;
+  const HashGrid grid(pts, 0.2f);
+  SampleLattice lattice{kind, kind == SampleLattice::Kind::cubic ? 0.05f : 0.1f};
+  const SparseField field = distance_field(grid, lattice, band, band_blocks(grid, lattice, band));
+  ASSERT_GT(field.block_count(), 0u);
+  EXPECT_EQ(field.background(), band);
+
+  // Every allocated sample equals the brute-force distance clamped to the band.
+  std::size_t checked = 0, inside = 0;
+  const int n = lattice.block_cells();
+  for (std::size_t b = 0; b < field.block_count(); ++b) {
+    const Vec3i o = field.block_origin(b);
+    for (int z = 0; z < n; ++z)
+      for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x)
+          for (int s = 0; s < lattice.samples_per_cell(); ++s) {
+            const Vec3i cell{o.x + x, o.y + y, o.z + z};
+            const Vec3f q = lattice.sample_position(cell, s);
+            float best = INFINITY;
+            for (const Vec3f& p : pts) best = std::min(best, length(p - q));
+            const float expected = std::min(best, band);
+            ASSERT_NEAR(field.value(cell, s), expected, 1e-5f) << "sample " << q.x << "," << q.y << "," << q.z;
+            ++checked;
+            inside += best < band;
+          }
+  }
+  EXPECT_GT(inside, 1000u);
+  // Samples in unallocated blocks are at least a band away from every particle.
+  std::uniform_real_distribution<float> wide(-8.0f, 8.0f);
+  for (int i = 0; i < 20000; ++i) {
+    const Vec3i cell{int32_t(wide(rng) / lattice.cell_size), int32_t(wide(rng) / lattice.cell_size),
+                     int32_t(wide(rng) / lattice.cell_size)};
+    if (field.find_block(field.block_of(cell)) != kNotFound) continue;
+    const Vec3f q = lattice.sample_position(cell, 0);
+    float best = INFINITY;
+    for (const Vec3f& p : pts) best = std::min(best, length(p - q));
+    ASSERT_GE(best, band);
+  }
+  // The far droplet has its own few blocks; memory follows the band, not the bounding box.
+  const double box_blocks = std::pow(7.0 / (double(lattice.cell_size) * n), 3);
+  EXPECT_LT(double(field.block_count()), 0.2 * box_blocks);
+}
+
+TEST(DistanceField, CubicMatchesBruteForce) { check_against_brute_force(SampleLattice::Kind::cubic); }
+TEST(DistanceField, A15MatchesBruteForce) { check_against_brute_force(SampleLattice::Kind::a15); }
+
+}  // namespace
+}  // namespace meniscus

@@ -1,0 +1,96 @@
+// Tests of the uniform hashed grid against brute force.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "grid/hash_grid.hpp"
+#include "meniscus/errors.hpp"
+
+namespace meniscus {
+namespace {
+
+std::vector<Vec3f> random_points(std::size_t n, float extent, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-extent, extent);
+  std::vector<Vec3f> p(n);
+  for (auto& v : p) v = {u(rng), u(rng), u(rng)};
+  return p;
+}
+
+TEST(HashGrid, SortedByCellAndCellRangesPartitionThePoints) {
+  const auto pts = random_points(5000, 3.0f, 7);
+  const HashGrid grid(pts, 0.4f);
+  ASSERT_EQ(grid.size(), pts.size());
+  // order() is a permutation and sorted_points() follows it.
+  std::vector<int> seen(pts.size(), 0);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    ++seen[grid.order()[i]];
+    EXPECT_EQ(grid.sorted_points()[i], pts[grid.order()[i]]);
+  }
+  for (int s : seen) ASSERT_EQ(s, 1);
+  // Every point lies in the cell whose range holds it.
+  std::size_t covered = 0;
+  for (std::size_t c = 0; c < grid.cell_keys().size(); ++c) {
+    const Vec3i cell = unpack_coords(grid.cell_keys()[c]);
+    for (uint32_t i = grid.cell_starts()[c]; i < grid.cell_starts()[c + 1]; ++i) {
+      EXPECT_EQ(grid.cell_of(grid.sorted_points()[i]), cell);
+      ++covered;
+    }
+    const auto [b, e] = grid.cell_range(cell);
+    EXPECT_EQ(b, grid.cell_starts()[c]);
+    EXPECT_EQ(e, grid.cell_starts()[c + 1]);
+  }
+  EXPECT_EQ(covered, pts.size());
+}
+
+TEST(HashGrid, NearestMatchesBruteForce) {
+  const auto pts = random_points(3000, 2.0f, 11);
+  const HashGrid grid(pts, 0.25f);
+  const auto queries = random_points(500, 3.0f, 12);  // some outside the points' box
+  for (const Vec3f& q : queries) {
+    float best = INFINITY;
+    for (const Vec3f& p : pts) best = std::min(best, length2(p - q));
+    const auto n = grid.nearest(q);
+    ASSERT_NE(n.index, kNotFound);
+    EXPECT_FLOAT_EQ(n.dist2, best);
+    EXPECT_FLOAT_EQ(length2(grid.sorted_points()[n.index] - q), best);
+    // Bounded search: found iff the nearest is within the radius.
+    const auto b = grid.nearest(q, 0.3f);
+    if (best <= 0.09f) {
+      EXPECT_FLOAT_EQ(b.dist2, best);
+    } else {
+      EXPECT_EQ(b.index, kNotFound);
+    }
+  }
+}
+
+TEST(HashGrid, RadiusQueryMatchesBruteForce) {
+  const auto pts = random_points(2000, 1.0f, 3);
+  const HashGrid grid(pts, 0.1f);
+  const auto queries = random_points(100, 1.2f, 4);
+  for (const Vec3f& q : queries) {
+    std::size_t expected = 0;
+    for (const Vec3f& p : pts) expected += length2(p - q) <= 0.35f * 0.35f;
+    std::size_t got = 0;
+    grid.for_each_within(q, 0.35f, [&](uint32_t i, float d2) {
+      EXPECT_LE(d2, 0.35f * 0.35f);
+      EXPECT_FLOAT_EQ(d2, length2(grid.sorted_points()[i] - q));
+      ++got;
+    });
+    EXPECT_EQ(got, expected);
+  }
+}
+
+TEST(HashGrid, RefusesCoordinatesBeyondTheKeyRange) {
+  std::vector<Vec3f> pts{{0, 0, 0}, {1e9f, 0, 0}};
+  EXPECT_THROW(HashGrid(pts, 0.01f), ResourceError);
+  EXPECT_THROW(HashGrid(pts, -1.0f), InvalidParameter);
+}
+
+TEST(HashGrid, EmptyGridFindsNothing) {
+  const HashGrid grid(std::vector<Vec3f>{}, 1.0f);
+  EXPECT_EQ(grid.nearest({0, 0, 0}).index, kNotFound);
+}
+
+}  // namespace
+}  // namespace meniscus

@@ -1,0 +1,171 @@
+// meniscus — block-parallel two-pass marching (Williams 2008 §4; Edespong 2010 §3.3).
+#include "extract/block_marching.hpp"
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "meniscus/errors.hpp"
+
+namespace meniscus {
+
+namespace {
+
+/// Every cell a block's kernels read or key an edge from lies within 2 cells of the block (one
+/// cell of halo, and an edge's far end one more cell away), and the ghost blocks next to an
+/// allocated block are marched too: so an allocated block, widened by one block and 2 cells on
+/// each side, must fit the edge key.
+void check_key_range(const SparseField& field, Vec3i block) {
+  const int n = field.lattice().block_cells();
+  for (int a = 0; a < 3; ++a) {
+    const int64_t first = int64_t(block[a]) * n, last = first + n - 1;
+    if (first - n - 2 < -kEdgeKeyMaxCoord || last + n + 2 > kEdgeKeyMaxCoord)
+      throw ResourceError(fmt::format(
+          "extract_surface: field block ({}, {}, {}) covers cells {}..{} on axis {}, too close to or outside the "
+          "limit of the extractor's 64-bit edge keys (|cell| <= {}, less one block and 2 cells of margin); "
+          "the surface spans too many cells: use a larger voxel size or move the particles closer to the origin",
+          block.x, block.y, block.z, first, last, "xyz"[a], kEdgeKeyMaxCoord));
+  }
+}
+
+}  // namespace
+
+std::vector<uint8_t> cell_inside_masks(const SparseField& field, float iso) {
+  const int spc = field.lattice().samples_per_cell();
+  const std::size_t cells = std::size_t(kBlockSamples / spc);
+  std::vector<uint8_t> masks(field.block_count() * cells);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, field.block_count()),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t b = r.begin(); b != r.end(); ++b) {
+                        // SparseField::local_index is cell-major with a cell's samples adjacent,
+                        // so cell c's samples are v[c·spc, (c+1)·spc).
+                        const float* v = field.block_values(b).data();
+                        uint8_t* m = masks.data() + b * cells;
+                        for (std::size_t c = 0; c < cells; ++c, v += spc) {
+                          unsigned bits = 0;
+                          for (int s = 0; s < spc; ++s) bits |= unsigned(v[s] < iso) << s;
+                          m[c] = uint8_t(bits);
+                        }
+                      }
+                    });
+  return masks;
+}
+
+std::vector<Vec3i> blocks_to_march(const SparseField& field, std::span<const uint8_t> cell_masks, bool full_stencil) {
+  const std::size_t count = field.block_count();
+  for (std::size_t b = 0; b < count; ++b) check_key_range(field, field.block_coords(b));
+  const std::size_t cells = count == 0 ? 0 : cell_masks.size() / count;
+
+  // A cell of block G reads cells up to one away; it reaches into allocated block B when G is
+  // B's neighbour on the side the stencil looks from: any side for the A15 tile, the lower side
+  // for cubes (which read their cell and the +1 neighbours).
+  std::vector<Vec3i> ghost_offsets;
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        if (dx == 0 && dy == 0 && dz == 0) continue;
+        if (!full_stencil && (dx > 0 || dy > 0 || dz > 0)) continue;
+        ghost_offsets.push_back({dx, dy, dz});
+      }
+
+  tbb::enumerable_thread_specific<std::vector<uint64_t>> ghosts;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count), [&](const tbb::blocked_range<std::size_t>& r) {
+    std::vector<uint64_t>& local = ghosts.local();
+    for (std::size_t b = r.begin(); b != r.end(); ++b) {
+      const auto first = cell_masks.begin() + std::ptrdiff_t(b * cells);
+      // Ghosts matter only next to inside samples: unallocated space is all outside.
+      if (std::all_of(first, first + std::ptrdiff_t(cells), [](uint8_t m) { return m == 0; })) continue;
+      const Vec3i c = field.block_coords(b);
+      for (const Vec3i d : ghost_offsets) {
+        const Vec3i g = c + d;
+        if (field.find_block(g) == kNotFound) local.push_back(pack_coords(g.x, g.y, g.z));
+      }
+    }
+  });
+
+  std::vector<uint64_t> keys(field.block_keys().begin(), field.block_keys().end());
+  for (const std::vector<uint64_t>& local : ghosts) keys.insert(keys.end(), local.begin(), local.end());
+  std::sort(keys.begin(), keys.end());  // deterministic order, whatever the threads did
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+
+  std::vector<Vec3i> blocks(keys.size());
+  for (std::size_t i = 0; i < keys.size(); ++i) blocks[i] = unpack_coords(keys[i]);
+  return blocks;
+}
+
+bool gather_inside_masks(const SparseField& field, std::span<const uint8_t> cell_masks, Vec3i block,
+                         PaddedMasks& masks) {
+  const int n = field.lattice().block_cells();
+  const int spc = field.lattice().samples_per_cell();
+  const std::size_t cells = std::size_t(n) * n * n;
+  const uint8_t all_inside = uint8_t((1u << spc) - 1);
+  masks.cells = n;
+  masks.padded = n + 2;
+  masks.origin = {block.x * n, block.y * n, block.z * n};
+  std::fill_n(masks.mask.begin(), masks.padded * masks.padded * masks.padded, uint8_t(0));
+
+  bool any_inside = false, any_outside = false;
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const uint32_t index = field.find_block(block + Vec3i{dx, dy, dz});
+        if (index == kNotFound) {
+          any_outside = true;  // its halo cells stay 0: background is outside
+          continue;
+        }
+        const uint8_t* source = cell_masks.data() + std::size_t(index) * cells;
+        // The neighbour's cells that fall in the halo: its last layer (d = −1), all (d = 0) or its
+        // first layer (d = +1); they land at local coordinate source + d·n. Rows along x are
+        // contiguous on both sides.
+        auto lo = [n](int d) { return d < 0 ? n - 1 : 0; };
+        auto hi = [n](int d) { return d > 0 ? 0 : n - 1; };
+        const int x0 = lo(dx), width = hi(dx) - x0 + 1;
+        for (int z = lo(dz); z <= hi(dz); ++z)
+          for (int y = lo(dy); y <= hi(dy); ++y) {
+            const uint8_t* row = source + (z * n + y) * n + x0;
+            uint8_t* target = masks.at(x0 + dx * n, y + dy * n, z + dz * n);
+            for (int x = 0; x < width; ++x) {
+              target[x] = row[x];
+              any_inside |= row[x] != 0;
+              any_outside |= row[x] != all_inside;
+            }
+          }
+      }
+  return any_inside && any_outside;
+}
+
+std::vector<uint64_t> march_blocks(const SparseField& field, float iso, bool full_stencil, BlockKernel kernel) {
+  const std::vector<uint8_t> cell_masks = cell_inside_masks(field, iso);
+  const std::vector<Vec3i> blocks = blocks_to_march(field, cell_masks, full_stencil);
+
+  // Pass 1: triangles per block.
+  std::vector<uint64_t> offsets(blocks.size() + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+    PaddedMasks masks;  // one per task, on the stack: no allocation in the loop
+    for (std::size_t b = r.begin(); b != r.end(); ++b)
+      offsets[b + 1] = gather_inside_masks(field, cell_masks, blocks[b], masks) ? kernel(masks, nullptr) : 0;
+  });
+  for (std::size_t b = 0; b < blocks.size(); ++b) offsets[b + 1] += offsets[b];
+
+  // Pass 2: each block writes its triangles at its offset, so the order is the block order.
+  std::vector<uint64_t> corners(3 * offsets.back());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+    PaddedMasks masks;
+    for (std::size_t b = r.begin(); b != r.end(); ++b) {
+      if (offsets[b + 1] == offsets[b]) continue;
+      gather_inside_masks(field, cell_masks, blocks[b], masks);
+      const uint32_t written = kernel(masks, corners.data() + 3 * offsets[b]);
+      // The passes read the same data with the same kernel; a mismatch means a kernel bug that
+      // would otherwise leave garbage keys in the mesh.
+      if (written != offsets[b + 1] - offsets[b])
+        throw std::logic_error("march_blocks: the write pass disagrees with the count pass");
+    }
+  });
+  return corners;
+}
+
+}  // namespace meniscus

@@ -1,0 +1,104 @@
+// meniscus — the per-cell kernels of the three extractors, written once for the CPU and a later
+// CUDA backend: Marching Tiles (Williams 2008), Marching Cubes (Lorensen & Cline 1987) and
+// Marching Tetrahedra on the Kuhn split (Doi & Koide 1991).
+//
+// Each kernel reads inside masks of a padded block (bit s of a cell's mask: sample s is inside,
+// φ < iso; cells addressed as mask[dx + dy·stride_y + dz·stride_z] from the kernel's own cell) and
+// returns the number of triangles of its cell. When `out` is not null it also writes 3 edge keys
+// per triangle there, in a fixed order (tetrahedron/case order), which makes the extraction
+// deterministic. `cell_key` is edge_key(cell, 0); an edge's key is cell_key + its key delta.
+#pragma once
+
+#include <cstdint>
+
+#include "extract/cube_cases.hpp"
+#include "extract/tetrahedron_cases.hpp"
+#include "extract/tile_table.hpp"
+#include "meniscus/vec.hpp"
+
+namespace meniscus {
+
+/// Where the kernel finds each tile vertex's inside bit: the offset of its cell in a padded mask
+/// array with strides (1, stride_y, stride_z) and the bit of its sample. Built once per layout, so
+/// the inner loop does no index arithmetic (it dominated the profile).
+struct TileVertexLookup {
+  int16_t offset[kA15TetCount][4];
+  uint8_t bit[kA15TetCount][4];
+};
+
+MENISCUS_HD constexpr TileVertexLookup make_tile_vertex_lookup(int stride_y, int stride_z) {
+  TileVertexLookup lookup{};
+  for (int t = 0; t < kA15TetCount; ++t)
+    for (int v = 0; v < 4; ++v) {
+      const LatticeSample& p = kA15Tets[t][v];
+      lookup.offset[t][v] = int16_t(p.dx + p.dy * stride_y + p.dz * stride_z);
+      lookup.bit[t][v] = uint8_t(1u << p.s);
+    }
+  return lookup;
+}
+
+/// Marching Tiles: the 46 A15 tetrahedra owned by one cell, `mask` pointing at the cell's own
+/// mask in a layout described by `lookup`. The caller skips cells whose neighbourhood is all
+/// inside or all outside; the kernel is still correct for them (0).
+MENISCUS_HD inline uint32_t march_tile_cell(const uint8_t* mask, const TileVertexLookup& lookup, uint64_t cell_key,
+                                            uint64_t* out) {
+  uint32_t n = 0;
+  for (int t = 0; t < kA15TetCount; ++t) {
+    const int16_t* o = lookup.offset[t];
+    const uint8_t* b = lookup.bit[t];
+    const int c = ((mask[o[0]] & b[0]) ? 1 : 0) | ((mask[o[1]] & b[1]) ? 2 : 0) | ((mask[o[2]] & b[2]) ? 4 : 0) |
+                  ((mask[o[3]] & b[3]) ? 8 : 0);
+    const TetCase& tc = kTetCases.cases[c];
+    if (out != nullptr) {
+      for (int k = 0; k < tc.count; ++k)
+        for (int j = 0; j < 3; ++j) out[3 * (n + k) + j] = cell_key + kA15EdgeTable.tet_edges[t][tc.edges[k][j]].key_delta;
+    }
+    n += tc.count;
+  }
+  return n;
+}
+
+/// Inside pattern of the cube whose lowest corner is the kernel's cell (cubic lattice, sample 0).
+MENISCUS_HD inline int cube_case(const uint8_t* mask, int stride_y, int stride_z) {
+  int c = 0;
+  for (int k = 0; k < 8; ++k)
+    c |= (mask[cube_corner_coord(k, 0) + cube_corner_coord(k, 1) * stride_y + cube_corner_coord(k, 2) * stride_z] & 1)
+         << k;
+  return c;
+}
+
+/// Marching Cubes: the cube whose lowest corner is the kernel's cell.
+MENISCUS_HD inline uint32_t march_cube_cell(const uint8_t* mask, int stride_y, int stride_z, uint64_t cell_key,
+                                            uint64_t* out) {
+  const CubeCase& cc = kCubeCases.cases[cube_case(mask, stride_y, stride_z)];
+  if (out != nullptr) {
+    for (int k = 0; k < cc.count; ++k)
+      for (int j = 0; j < 3; ++j) out[3 * k + j] = cell_key + kCubeEdgeKeyDeltas.v[cc.edges[k][j]];
+  }
+  return cc.count;
+}
+
+/// Marching Tetrahedra: the 6 Kuhn tetrahedra of the cube whose lowest corner is the kernel's cell.
+MENISCUS_HD inline uint32_t march_kuhn_cell(const uint8_t* mask, int stride_y, int stride_z, uint64_t cell_key,
+                                            uint64_t* out) {
+  const int corners = cube_case(mask, stride_y, stride_z);
+  if (corners == 0 || corners == 255) return 0;
+  uint32_t n = 0;
+  for (int t = 0; t < kKuhnTetCount; ++t) {
+    int c = 0;
+    for (int v = 0; v < 4; ++v) {
+      const LatticeSample& p = kKuhnTets[t][v];
+      c |= ((corners >> (p.dx + 2 * p.dy + 4 * p.dz)) & 1) << v;
+    }
+    const TetCase& tc = kTetCases.cases[c];
+    if (out != nullptr) {
+      for (int k = 0; k < tc.count; ++k)
+        for (int j = 0; j < 3; ++j)
+          out[3 * (n + k) + j] = cell_key + kKuhnEdgeTable.tet_edges[t][tc.edges[k][j]].key_delta;
+    }
+    n += tc.count;
+  }
+  return n;
+}
+
+}  // namespace meniscus

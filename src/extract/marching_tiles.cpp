@@ -1,0 +1,48 @@
+// meniscus — Marching Tiles (Williams 2008): the A15 acute tetrahedral tile, 46 per cell.
+#include <stdexcept>
+
+#include "extract/block_marching.hpp"
+#include "extract/marching.hpp"
+#include "extract/marching_impl.hpp"
+
+namespace meniscus {
+
+namespace {
+
+// The A15 block is 4³ cells, padded to 6³.
+constexpr int kPadded = 4 + 2;
+constexpr TileVertexLookup kLookup = make_tile_vertex_lookup(kPadded, kPadded * kPadded);
+
+uint32_t march_tile_block(const PaddedMasks& masks, uint64_t* out) {
+  const int n = masks.cells;
+  constexpr int sy = kPadded, sz = kPadded * kPadded;
+  if (masks.padded != kPadded) throw std::logic_error("march_tiles: the A15 block must be 4³ cells");
+  uint32_t count = 0;
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        const uint8_t* m = masks.at(x, y, z);
+        // A cell's tetrahedra read only the 27 cells around it: skip the cell (46 tetrahedra)
+        // when all their samples agree, as they do almost everywhere in a band.
+        unsigned any = 0, all = 0xFF;
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const unsigned v = m[dx + dy * sy + dz * sz];
+              any |= v;
+              all &= v;
+            }
+        if (any == 0 || all == 0xFF) continue;
+        const uint64_t cell_key = edge_key(masks.origin + Vec3i{x, y, z}, 0);
+        count += march_tile_cell(m, kLookup, cell_key, out != nullptr ? out + 3 * std::size_t(count) : nullptr);
+      }
+  return count;
+}
+
+}  // namespace
+
+std::vector<uint64_t> march_tiles(const SparseField& field, float iso) {
+  return march_blocks(field, iso, /*full_stencil=*/true, march_tile_block);
+}
+
+}  // namespace meniscus

@@ -1,0 +1,253 @@
+// meniscus — edge weld by radix sort + unique on lattice-edge keys (Williams 2008 §4).
+#include "extract/weld.hpp"
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <bit>
+#include <vector>
+
+#include "extract/radix_sort.hpp"
+#include "extract/tile_table.hpp"
+#include "meniscus/errors.hpp"
+
+namespace meniscus {
+
+namespace {
+
+/// Maps edge keys onto dense integers in the same order: ((z·NY + y)·NX + x)·64 + type with the
+/// base cell taken relative to the smallest one used. Edge keys spread their 19-bit axis fields
+/// over 63 bits (and offset coordinates flip every high bit at 0), so a radix sort would need all
+/// its passes; the dense key of a field spanning a few hundred cells needs 3. Always fits 64 bits:
+/// each axis spans at most 2^19 cells, (2^19)³ · 64 = 2^63.
+struct DenseEdgeKeys {
+  Vec3i lo;
+  uint64_t nx = 1, ny = 1;
+  int bits = 1;  ///< every dense key is < 2^bits
+
+  explicit DenseEdgeKeys(std::span<const uint64_t> keys) {
+    struct Box {
+      Vec3i lo{kEdgeKeyMaxCoord, kEdgeKeyMaxCoord, kEdgeKeyMaxCoord};
+      Vec3i hi{-kEdgeKeyMaxCoord, -kEdgeKeyMaxCoord, -kEdgeKeyMaxCoord};
+      void add(Vec3i a, Vec3i b) {
+        lo = {std::min(lo.x, a.x), std::min(lo.y, a.y), std::min(lo.z, a.z)};
+        hi = {std::max(hi.x, b.x), std::max(hi.y, b.y), std::max(hi.z, b.z)};
+      }
+    };
+    const Box box = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, keys.size()), Box{},
+        [&](const tbb::blocked_range<std::size_t>& r, Box b) {
+          for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            const Vec3i c = edge_key_cell(keys[i]);
+            b.add(c, c);
+          }
+          return b;
+        },
+        [](Box a, const Box& b) {
+          a.add(b.lo, b.hi);
+          return a;
+        });
+    if (keys.empty()) return;
+    lo = box.lo;
+    nx = uint64_t(int64_t(box.hi.x) - box.lo.x + 1);
+    ny = uint64_t(int64_t(box.hi.y) - box.lo.y + 1);
+    const uint64_t nz = uint64_t(int64_t(box.hi.z) - box.lo.z + 1);
+    bits = int(std::bit_width(nx * ny * nz * 64 - 1));
+  }
+  uint64_t dense(uint64_t key) const {
+    const Vec3i c = edge_key_cell(key);
+    const uint64_t cell = (uint64_t(c.z - lo.z) * ny + uint64_t(c.y - lo.y)) * nx + uint64_t(c.x - lo.x);
+    return cell * 64 + uint64_t(edge_key_type(key));
+  }
+  uint64_t key(uint64_t dense_key) const {
+    const uint64_t cell = dense_key / 64;
+    const Vec3i c{lo.x + int32_t(cell % nx), lo.y + int32_t(cell / nx % ny), lo.z + int32_t(cell / nx / ny)};
+    return edge_key(c, int(dense_key % 64));
+  }
+};
+
+/// Binary search in two levels: first among every 64th key (an array small enough to stay in
+/// cache), then within one run of 64 — two or three cache misses per lookup instead of ~20.
+class SortedKeyIndex {
+ public:
+  explicit SortedKeyIndex(const std::vector<uint64_t>& sorted) : sorted_(sorted) {
+    for (std::size_t i = 0; i < sorted.size(); i += kRun) sampled_.push_back(sorted[i]);
+  }
+  /// Index of `key`, which must be present.
+  std::size_t find(uint64_t key) const {
+    const std::size_t run = std::size_t(std::upper_bound(sampled_.begin(), sampled_.end(), key) - sampled_.begin()) - 1;
+    const auto first = sorted_.begin() + std::ptrdiff_t(run * kRun);
+    const auto last = sorted_.begin() + std::ptrdiff_t(std::min(sorted_.size(), (run + 1) * kRun));
+    return std::size_t(std::lower_bound(first, last, key) - sorted_.begin());
+  }
+
+ private:
+  static constexpr std::size_t kRun = 64;
+  const std::vector<uint64_t>& sorted_;
+  std::vector<uint64_t> sampled_;
+};
+
+/// Distinct values of a sorted array, in parallel: count run heads per chunk, prefix-sum, copy.
+std::vector<uint64_t> unique_sorted(const std::vector<uint64_t>& sorted) {
+  constexpr std::size_t kChunk = std::size_t(1) << 16;
+  const std::size_t n = sorted.size(), chunks = (n + kChunk - 1) / kChunk;
+  auto is_head = [&](std::size_t i) { return i == 0 || sorted[i] != sorted[i - 1]; };
+  std::vector<std::size_t> offsets(chunks + 1, 0);
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    std::size_t heads = 0;
+    for (std::size_t i = c * kChunk, end = std::min(n, i + kChunk); i < end; ++i) heads += is_head(i);
+    offsets[c + 1] = heads;
+  });
+  for (std::size_t c = 0; c < chunks; ++c) offsets[c + 1] += offsets[c];
+  std::vector<uint64_t> unique(offsets.back());
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    std::size_t out = offsets[c];
+    for (std::size_t i = c * kChunk, end = std::min(n, i + kChunk); i < end; ++i)
+      if (is_head(i)) unique[out++] = sorted[i];
+  });
+  return unique;
+}
+
+/// Where {φ = iso} crosses the edge with this key.
+Vec3f edge_vertex(uint64_t key, const SparseField& field, float iso) {
+  const SampleLattice& lattice = field.lattice();
+  Vec3i c0, c1;
+  int s0 = 0, s1 = 0;
+  edge_key_samples(key, lattice.kind == SampleLattice::Kind::a15, &c0, &s0, &c1, &s1);
+  const float t = edge_parameter(field.value(c0, s0), field.value(c1, s1), iso, kEdgeClamp);
+  const Vec3f p0 = lattice.sample_position(c0, s0), p1 = lattice.sample_position(c1, s1);
+  return p0 + (p1 - p0) * t;
+}
+
+/// Removes triangles with a repeated vertex (keeping the order) and the vertices nothing uses
+/// any more. Never reached by the marching stages (a triangle's corners lie on distinct edges of
+/// one cell, hence have distinct keys); kept so the weld's contract holds for any input.
+std::size_t drop_repeated(TriangleMesh& mesh) {
+  std::vector<Triangle> kept;
+  kept.reserve(mesh.triangles.size());
+  std::vector<uint32_t> remap(mesh.vertices.size(), kNotFound);
+  for (const Triangle& t : mesh.triangles) {
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) continue;
+    kept.push_back(t);
+    for (uint32_t v : t) remap[v] = 0;
+  }
+  const std::size_t dropped = mesh.triangles.size() - kept.size();
+  uint32_t next = 0;
+  for (std::size_t v = 0; v < remap.size(); ++v)
+    if (remap[v] != kNotFound) {
+      mesh.vertices[next] = mesh.vertices[v];
+      remap[v] = next++;
+    }
+  mesh.vertices.resize(next);
+  for (Triangle& t : kept)
+    for (uint32_t& v : t) v = remap[v];
+  mesh.triangles = std::move(kept);
+  return dropped;
+}
+
+/// Vertex positions, one per distinct dense key.
+void compute_vertices(const std::vector<uint64_t>& vertex_keys, const DenseEdgeKeys& dense, const SparseField& field,
+                      float iso, TriangleMesh& mesh) {
+  if (vertex_keys.size() >= kNotFound)
+    throw ResourceError(fmt::format("extract_surface: {} vertices exceed the 32-bit vertex index of TriangleMesh",
+                                    vertex_keys.size()));
+  mesh.vertices.resize(vertex_keys.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertex_keys.size()),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t v = r.begin(); v != r.end(); ++v)
+                        mesh.vertices[v] = edge_vertex(dense.key(vertex_keys[v]), field, iso);
+                    });
+}
+
+/// The usual case: a corner's dense key and its index fit one 64-bit word together. One radix sort
+/// on the key bits brings equal keys together with their corners' indices; each run becomes a
+/// vertex and its index is scattered back to the corners — no search at all.
+void weld_packed(std::span<const uint64_t> corner_keys, const DenseEdgeKeys& dense, int index_bits,
+                 const SparseField& field, float iso, TriangleMesh& mesh) {
+  const std::size_t n = corner_keys.size();
+  std::vector<uint64_t> packed(n);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) packed[i] = (dense.dense(corner_keys[i]) << index_bits) | i;
+  });
+  radix_sort(packed, index_bits, index_bits + dense.bits);
+
+  constexpr std::size_t kChunk = std::size_t(1) << 16;
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  auto key_of = [index_bits](uint64_t p) { return p >> index_bits; };
+  auto is_head = [&](std::size_t i) { return i == 0 || key_of(packed[i]) != key_of(packed[i - 1]); };
+  std::vector<std::size_t> first_vertex(chunks + 1, 0);
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    std::size_t heads = 0;
+    for (std::size_t i = c * kChunk, end = std::min(n, i + kChunk); i < end; ++i) heads += is_head(i);
+    first_vertex[c + 1] = heads;
+  });
+  for (std::size_t c = 0; c < chunks; ++c) first_vertex[c + 1] += first_vertex[c];
+
+  std::vector<uint64_t> vertex_keys(first_vertex.back());
+  mesh.triangles.resize(n / 3);
+  uint32_t* corners = mesh.triangles.empty() ? nullptr : mesh.triangles.front().data();
+  const uint64_t index_mask = (uint64_t(1) << index_bits) - 1;
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    std::size_t v = first_vertex[c];  // index of the next run head
+    for (std::size_t i = c * kChunk, end = std::min(n, i + kChunk); i < end; ++i) {
+      if (is_head(i)) vertex_keys[v++] = key_of(packed[i]);
+      corners[packed[i] & index_mask] = uint32_t(v - 1);
+    }
+  });
+  packed = {};
+  compute_vertices(vertex_keys, dense, field, iso, mesh);
+}
+
+/// Fallback for fields whose cells span so much of the key range (components near opposite
+/// corners of a 2^19-cell cube) that key and index do not share a word: sort the keys alone, keep
+/// the distinct ones, and find each corner's key by a two-level binary search.
+void weld_searched(std::span<const uint64_t> corner_keys, const DenseEdgeKeys& dense, const SparseField& field,
+                   float iso, TriangleMesh& mesh) {
+  std::vector<uint64_t> sorted(corner_keys.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, corner_keys.size()),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) sorted[i] = dense.dense(corner_keys[i]);
+                    });
+  radix_sort(sorted, 0, dense.bits);
+  const std::vector<uint64_t> vertex_keys = unique_sorted(sorted);
+  sorted = {};
+  compute_vertices(vertex_keys, dense, field, iso, mesh);
+
+  const SortedKeyIndex index(vertex_keys);
+  mesh.triangles.resize(corner_keys.size() / 3);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.triangles.size()),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t t = r.begin(); t != r.end(); ++t)
+                        for (int k = 0; k < 3; ++k)
+                          mesh.triangles[t][k] = uint32_t(index.find(dense.dense(corner_keys[3 * t + k])));
+                    });
+}
+
+}  // namespace
+
+ExtractResult weld_edge_keys(std::span<const uint64_t> corner_keys, const SparseField& field, float iso) {
+  ExtractResult result;
+  const DenseEdgeKeys dense(corner_keys);
+  const int index_bits = corner_keys.size() < 2 ? 1 : int(std::bit_width(corner_keys.size() - 1));
+  if (dense.bits + index_bits <= 64) weld_packed(corner_keys, dense, index_bits, field, iso, result.mesh);
+  else weld_searched(corner_keys, dense, field, iso, result.mesh);
+
+  TriangleMesh& mesh = result.mesh;
+  const std::size_t repeated = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, mesh.triangles.size()), std::size_t(0),
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t acc) {
+        for (std::size_t t = r.begin(); t != r.end(); ++t) {
+          const Triangle& tri = mesh.triangles[t];
+          acc += tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2];
+        }
+        return acc;
+      },
+      [](std::size_t a, std::size_t b) { return a + b; });
+  if (repeated > 0) result.dropped_triangles = drop_repeated(mesh);
+  return result;
+}
+
+}  // namespace meniscus

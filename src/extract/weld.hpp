@@ -1,0 +1,22 @@
+// meniscus — the edge weld (Williams 2008 §4; Edespong 2010 §3.3): triangle corners given as
+// lattice-edge keys become an indexed mesh with one vertex per distinct edge, so connectivity is
+// exact (never decided by comparing float positions).
+#pragma once
+
+#include <cstdint>
+#include <span>
+
+#include "extract/extract.hpp"
+#include "field/sparse_field.hpp"
+
+namespace meniscus {
+
+/// `corner_keys` holds 3 edge keys per triangle (from the marching stages). Vertices are the
+/// distinct keys in increasing key order; vertex i lies on its edge at the clamped crossing
+/// parameter of {φ = iso} (edge_parameter with kEdgeClamp), values read from `field`. Triangles
+/// keep their order; one with a repeated vertex is dropped and counted (vertices that only such
+/// triangles used are removed). Parallel (oneTBB); the result does not depend on the thread count.
+/// Throws ResourceError when there would be 2^32 or more vertices.
+ExtractResult weld_edge_keys(std::span<const uint64_t> corner_keys, const SparseField& field, float iso);
+
+}  // namespace meniscus

@@ -1,0 +1,112 @@
+// meniscus tests — the edge weld (Williams 2008 §4) and its parallel LSD radix sort.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "extract/edge_key.hpp"
+#include "extract/extract.hpp"
+#include "extract/radix_sort.hpp"
+#include "extract/weld.hpp"
+#include "meniscus/quality.hpp"
+
+namespace meniscus {
+namespace {
+
+TEST(ExtractRadixSort, MatchesStdSortForAnyBitWidth) {
+  std::mt19937_64 rng(5);
+  for (int bits : {1, 7, 11, 12, 22, 33, 63, 64}) {
+    for (std::size_t n : {std::size_t(0), std::size_t(1), std::size_t(1000), std::size_t(300000)}) {
+      std::vector<uint64_t> keys(n);
+      const uint64_t mask = bits == 64 ? ~uint64_t(0) : (uint64_t(1) << bits) - 1;
+      for (uint64_t& k : keys) k = rng() & mask;
+      std::vector<uint64_t> expected = keys;
+      std::sort(expected.begin(), expected.end());
+      radix_sort(keys, 0, bits);
+      EXPECT_EQ(keys, expected) << bits << " bits, " << n << " keys";
+    }
+  }
+}
+
+TEST(ExtractRadixSort, SortsOnlyTheKeyBitsAndKeepsThePayloadStable) {
+  // Key in bits [20, 40), payload (the input position) in bits [0, 20), junk above bit 40 that
+  // must not take part.
+  std::mt19937_64 rng(9);
+  const std::size_t n = 200000;
+  std::vector<uint64_t> packed(n);
+  for (std::size_t i = 0; i < n; ++i) packed[i] = ((rng() % 5000) << 20) | i | ((rng() % 7) << 40);
+  std::vector<uint64_t> expected = packed;
+  auto key = [](uint64_t p) { return (p >> 20) & ((uint64_t(1) << 20) - 1); };
+  std::stable_sort(expected.begin(), expected.end(), [&](uint64_t a, uint64_t b) { return key(a) < key(b); });
+  radix_sort(packed, 20, 40);
+  EXPECT_EQ(packed, expected);
+}
+
+TEST(ExtractWeld, CornersOnTheSameEdgeShareOneVertexInKeyOrder) {
+  SampleLattice lattice;  // cubic, h = 1
+  std::vector<uint64_t> blocks = {pack_coords(0, 0, 0)};
+  SparseField field(lattice, blocks, 1.0f);
+  // φ = -1 at sample (1,1,1), 1 elsewhere: the crossing on every edge from it is at t = 0.5.
+  field.block_values(0)[field.local_index({1, 1, 1}, 0)] = -1;
+  const uint64_t x = edge_key({1, 1, 1}, 0), y = edge_key({1, 1, 1}, 1), z = edge_key({1, 1, 1}, 3),
+                 mx = edge_key({0, 1, 1}, 0);
+  const std::vector<uint64_t> corners = {z, y, x, x, mx, y, y, y, z};  // the last one repeats a vertex
+  const ExtractResult r = weld_edge_keys(corners, field, 0);
+  ASSERT_EQ(r.mesh.triangles.size(), 2u);
+  EXPECT_EQ(r.dropped_triangles, 1u);
+  // Vertices in key order: mx < x < y < z.
+  ASSERT_EQ(r.mesh.vertices.size(), 4u);
+  EXPECT_EQ(r.mesh.vertices[0], (Vec3f{0.5f, 1, 1}));
+  EXPECT_EQ(r.mesh.vertices[1], (Vec3f{1.5f, 1, 1}));
+  EXPECT_EQ(r.mesh.vertices[2], (Vec3f{1, 1.5f, 1}));
+  EXPECT_EQ(r.mesh.vertices[3], (Vec3f{1, 1, 1.5f}));
+  EXPECT_EQ(r.mesh.triangles[0], (Triangle{3, 2, 1}));
+  EXPECT_EQ(r.mesh.triangles[1], (Triangle{1, 0, 2}));
+}
+
+/// Two small balls in opposite corners of the key range: the dense keys then need more bits than
+/// fit beside a corner index, so the weld takes its search path. The result must be the same
+/// mesh as welding each ball alone (vertices are in key order, so ball A's come first).
+TEST(ExtractWeld, FarApartComponentsWeldLikeSeparateOnes) {
+  SampleLattice lattice;
+  lattice.kind = SampleLattice::Kind::cubic;
+  const int far = (1 << 17) / 8;  // block coordinate: cells around ±2^17
+  auto make = [&](std::vector<Vec3i> centres_in_blocks) {
+    std::vector<uint64_t> keys;
+    for (Vec3i b : centres_in_blocks) keys.push_back(pack_coords(b.x, b.y, b.z));
+    std::sort(keys.begin(), keys.end());
+    SparseField field(lattice, keys, 10.0f);
+    for (std::size_t b = 0; b < field.block_count(); ++b) {
+      for (int z = 0; z < 8; ++z)
+        for (int y = 0; y < 8; ++y)
+          for (int x = 0; x < 8; ++x) {
+            const float dx = float(x) - 3.6f, dy = float(y) - 3.3f, dz = float(z) - 3.9f;
+            field.block_values(b)[field.local_index({x, y, z}, 0)] = std::sqrt(dx * dx + dy * dy + dz * dz) - 2.5f;
+          }
+    }
+    return field;
+  };
+  const Vec3i a{-far, -far, -far}, b{far, far, far};
+  const ExtractResult both = extract_surface(make({a, b}), 0, Extractor::cubes);
+  const ExtractResult only_a = extract_surface(make({a}), 0, Extractor::cubes);
+  const ExtractResult only_b = extract_surface(make({b}), 0, Extractor::cubes);
+  const TopologyReport topo = analyze_topology(both.mesh);
+  EXPECT_TRUE(topo.watertight());
+  EXPECT_EQ(topo.components, 2u);
+  ASSERT_EQ(both.mesh.vertices.size(), only_a.mesh.vertices.size() + only_b.mesh.vertices.size());
+  ASSERT_EQ(both.mesh.triangles.size(), only_a.mesh.triangles.size() + only_b.mesh.triangles.size());
+  const uint32_t shift = uint32_t(only_a.mesh.vertices.size());
+  for (std::size_t v = 0; v < only_a.mesh.vertices.size(); ++v) EXPECT_EQ(both.mesh.vertices[v], only_a.mesh.vertices[v]);
+  for (std::size_t v = 0; v < only_b.mesh.vertices.size(); ++v)
+    EXPECT_EQ(both.mesh.vertices[shift + v], only_b.mesh.vertices[v]);
+  for (std::size_t t = 0; t < only_a.mesh.triangles.size(); ++t) EXPECT_EQ(both.mesh.triangles[t], only_a.mesh.triangles[t]);
+  for (std::size_t t = 0; t < only_b.mesh.triangles.size(); ++t) {
+    const Triangle& tb = only_b.mesh.triangles[t];
+    EXPECT_EQ(both.mesh.triangles[only_a.mesh.triangles.size() + t], (Triangle{tb[0] + shift, tb[1] + shift, tb[2] + shift}));
+  }
+}
+
+}  // namespace
+}  // namespace meniscus

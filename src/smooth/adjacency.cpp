@@ -1,0 +1,92 @@
+// meniscus — mesh adjacency (CSR) and greedy graph colouring.
+#include "smooth/adjacency.hpp"
+
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_scan.h>
+
+#include <algorithm>
+
+namespace meniscus {
+
+Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> triangles) {
+  Adjacency adj;
+  const std::size_t nv = vertex_count;
+  adj.tri_offsets.assign(nv + 1, 0);
+  for (const Triangle& t : triangles)
+    for (uint32_t v : t) ++adj.tri_offsets[v + 1];
+  for (std::size_t i = 0; i < nv; ++i) adj.tri_offsets[i + 1] += adj.tri_offsets[i];
+  adj.tri_ids.resize(adj.tri_offsets[nv]);
+  {
+    std::vector<uint32_t> fill(adj.tri_offsets.begin(), adj.tri_offsets.end() - 1);
+    for (uint32_t f = 0; f < triangles.size(); ++f)
+      for (uint32_t v : triangles[f]) adj.tri_ids[fill[v]++] = f;
+  }
+
+  // Each vertex's neighbours come from its incident triangles: collect, sort, unique — first to
+  // count, then to write, so the rows land in one array without per-vertex allocation.
+  auto gather = [&](uint32_t i, uint32_t* out) {
+    uint32_t n = 0;
+    for (uint32_t k = adj.tri_offsets[i]; k < adj.tri_offsets[i + 1]; ++k) {
+      const Triangle& t = triangles[adj.tri_ids[k]];
+      for (uint32_t v : t)
+        if (v != i) out[n++] = v;
+    }
+    std::sort(out, out + n);
+    return uint32_t(std::unique(out, out + n) - out);
+  };
+  std::vector<uint32_t> counts(nv + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 2048), [&](const auto& r) {
+    std::vector<uint32_t> scratch;
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      scratch.resize(2 * (adj.tri_offsets[i + 1] - adj.tri_offsets[i]));
+      counts[i + 1] = gather(uint32_t(i), scratch.data());
+    }
+  });
+  adj.offsets.resize(nv + 1);
+  adj.offsets[0] = 0;
+  for (std::size_t i = 0; i < nv; ++i) adj.offsets[i + 1] = adj.offsets[i] + counts[i + 1];
+  adj.neighbors.resize(adj.offsets[nv]);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 2048), [&](const auto& r) {
+    std::vector<uint32_t> scratch;
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      scratch.resize(2 * (adj.tri_offsets[i + 1] - adj.tri_offsets[i]));
+      const uint32_t n = gather(uint32_t(i), scratch.data());
+      std::copy(scratch.begin(), scratch.begin() + n, adj.neighbors.begin() + adj.offsets[i]);
+    }
+  });
+  return adj;
+}
+
+Coloring color_vertices(const Adjacency& adj, int distance) {
+  const std::size_t nv = adj.vertex_count();
+  std::vector<uint16_t> color(nv, 0xFFFF);
+  std::vector<uint32_t> mark;  // mark[c] == i + 1: colour c is taken for vertex i
+  uint16_t ncolors = 0;
+  for (uint32_t i = 0; i < nv; ++i) {
+    auto take = [&](uint32_t j) {
+      const uint16_t c = color[j];
+      if (c != 0xFFFF) mark[c] = i + 1;
+    };
+    mark.resize(std::size_t(ncolors) + 1, 0);
+    for (uint32_t j : adj.row(i)) {
+      take(j);
+      if (distance >= 2)
+        for (uint32_t k : adj.row(j))
+          if (k != i) take(k);
+    }
+    uint16_t c = 0;
+    while (c < ncolors && mark[c] == i + 1) ++c;
+    color[i] = c;
+    if (c == ncolors) ++ncolors;
+  }
+  Coloring out;
+  out.offsets.assign(std::size_t(ncolors) + 1, 0);
+  for (uint16_t c : color) ++out.offsets[std::size_t(c) + 1];
+  for (std::size_t c = 0; c < ncolors; ++c) out.offsets[c + 1] += out.offsets[c];
+  out.vertices.resize(nv);
+  std::vector<uint32_t> fill(out.offsets.begin(), out.offsets.end() - 1);
+  for (uint32_t i = 0; i < nv; ++i) out.vertices[fill[color[i]]++] = i;
+  return out;
+}
+
+}  // namespace meniscus

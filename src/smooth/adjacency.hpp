@@ -1,0 +1,38 @@
+// meniscus — vertex adjacency of a triangle mesh in CSR form (neighbours sorted, no self),
+// plus vertex → incident-triangle lists and independent-set colourings for Gauss–Seidel.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "meniscus/mesh.hpp"
+
+namespace meniscus {
+
+struct Adjacency {
+  std::vector<uint32_t> offsets;      ///< #V+1: neighbours of i are neighbors[offsets[i] .. offsets[i+1])
+  std::vector<uint32_t> neighbors;    ///< sorted ascending within each row
+  std::vector<uint32_t> tri_offsets;  ///< #V+1: incident triangles of i are tri_ids[tri_offsets[i] ..)
+  std::vector<uint32_t> tri_ids;
+
+  std::size_t vertex_count() const { return offsets.empty() ? 0 : offsets.size() - 1; }
+  std::span<const uint32_t> row(uint32_t i) const {
+    return {neighbors.data() + offsets[i], offsets[i + 1] - offsets[i]};
+  }
+};
+
+/// Builds the adjacency of `vertex_count` vertices from the triangles (parallel).
+Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> triangles);
+
+/// Vertices grouped into colour classes such that no two vertices of a class are within
+/// `distance` (1 or 2) edges of each other: vertices[offsets[c] .. offsets[c+1]) have colour c.
+struct Coloring {
+  std::vector<uint32_t> offsets;
+  std::vector<uint32_t> vertices;
+  std::size_t colors() const { return offsets.empty() ? 0 : offsets.size() - 1; }
+};
+/// Greedy colouring (deterministic: vertices in index order, smallest free colour).
+Coloring color_vertices(const Adjacency& adjacency, int distance);
+
+}  // namespace meniscus

@@ -1,0 +1,136 @@
+// meniscus — constraint projection (Williams 2008 §4.2).
+#include "smooth/constraints.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include "smooth/constraint_impl.hpp"
+
+namespace meniscus {
+
+namespace {
+
+HashGrid::Nearest nearest_particle(const ShellConstraint& c, Vec3f x) {
+  HashGrid::Nearest n = c.particles->nearest(x, 2.0f * c.r_outer);
+  if (n.index == kNotFound) n = c.particles->nearest(x);
+  return n;
+}
+
+bool clear_of_inner_shells(const ShellConstraint& c, Vec3f y) {
+  bool clear = true;
+  const float lo2 = c.r_inner * c.r_inner * (1.0f - 4e-6f);
+  c.particles->for_each_within(y, c.r_inner, [&](uint32_t, float d2) { clear &= d2 >= lo2; });
+  return clear;
+}
+
+template <class NearestFn>
+Vec3f project_with(const ShellConstraint& c, Vec3f x, NearestFn&& nearest_particle) {
+  const auto points = c.particles->sorted_points();
+  // Accept within a few ulps of the shell, and project a hair inside it: a point projected
+  // exactly onto the shell measures up to an ulp outside half the time, which would otherwise
+  // send it round again.
+  const float lo2 = c.r_inner * c.r_inner * (1.0f - 4e-6f), hi2 = c.r_outer * c.r_outer * (1.0f + 4e-6f);
+  const float target_in = c.r_inner * (1.0f + 1e-6f), target_out = c.r_outer * (1.0f - 1e-6f);
+  // Each round fixes the violation against the current nearest particle; a second round is
+  // needed only where the inner shells of two particles overlap.
+  uint32_t first = kNotFound;
+  for (int round = 0; round < 4; ++round) {
+    const HashGrid::Nearest n = nearest_particle(x);
+    if (n.index == kNotFound) return x;
+    if (n.dist2 >= lo2 && n.dist2 <= hi2) return x;
+    if (first == kNotFound) first = n.index;
+    x = project_to_shell(x, points[n.index], target_in, target_out);
+  }
+  const HashGrid::Nearest n = nearest_particle(x);
+  if (n.dist2 >= lo2 && n.dist2 <= hi2) return x;
+  // Rare: projections against different particles undo each other (a vertex squeezed between
+  // the inner shell of one particle and the outer shell of another). Search the ray from the
+  // first nearest particle through x, from the outer shell inwards, for a point clear of every
+  // inner shell; on it the first particle is within r_outer, so the constraint holds.
+  const Vec3f p = points[first];
+  const Vec3f u = x == p ? Vec3f{0, 0, 1} : normalized(x - p);
+  constexpr int kSteps = 8;
+  auto search_ray = [&](Vec3f dir, Vec3f* out) {
+    for (int k = 0; k <= kSteps; ++k) {
+      const float t = target_out - (target_out - target_in) * float(k) / kSteps;
+      if (clear_of_inner_shells(c, p + dir * t)) {
+        *out = p + dir * t;
+        return true;
+      }
+    }
+    return false;
+  };
+  Vec3f y;
+  if (search_ray(u, &y)) return y;
+  // Then the directions around u, nearest first.
+  Vec3f best_y = x;
+  float best_dot = -2;
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        if (dx == 0 && dy == 0 && dz == 0) continue;
+        const Vec3f e = normalized(Vec3f{float(dx), float(dy), float(dz)});
+        for (float w : {0.5f, 2.0f}) {
+          const Vec3f dir = normalized(u + e * w);
+          if (length2(dir) == 0 || dot(dir, u) <= best_dot) continue;
+          if (search_ray(dir, &y)) best_y = y, best_dot = dot(dir, u);
+        }
+      }
+  if (best_dot > -2) return best_y;
+  return x;  // no feasible point on that ray: keep the best effort
+}
+
+}  // namespace
+
+Vec3f project_vertex(const ShellConstraint& c, Vec3f x) {
+  return project_with(c, x, [&](Vec3f y) { return nearest_particle(c, y); });
+}
+
+void NeighbourCache::build(const ShellConstraint& c, std::span<const Vec3f> x) {
+  margin_ = 0.5f * c.r_outer;
+  const float reach = c.r_outer + margin_;
+  anchors_.assign(x.begin(), x.end());
+  offsets_.assign(x.size() + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 1024), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      uint32_t n = 0;
+      c.particles->for_each_within(x[i], reach, [&](uint32_t, float) { ++n; });
+      offsets_[i + 1] = n;
+    }
+  });
+  for (std::size_t i = 0; i < x.size(); ++i) offsets_[i + 1] += offsets_[i];
+  ids_.resize(offsets_[x.size()]);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 1024), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      uint32_t k = offsets_[i];
+      c.particles->for_each_within(x[i], reach, [&](uint32_t id, float) { ids_[k++] = id; });
+    }
+  });
+}
+
+Vec3f NeighbourCache::project(const ShellConstraint& c, uint32_t i, Vec3f x) const {
+  const auto points = c.particles->sorted_points();
+  const float reach = c.r_outer + margin_;
+  return project_with(c, x, [&](Vec3f y) {
+    // The list holds every particle within `reach` of the anchor, so it holds every particle
+    // within reach − |y − anchor| of y: a nearest candidate inside that radius is exact.
+    const float moved = length(y - anchors_[i]);
+    if (moved < margin_) {
+      HashGrid::Nearest best;
+      for (uint32_t k = offsets_[i]; k < offsets_[i + 1]; ++k) {
+        const float d2 = length2(points[ids_[k]] - y);
+        if (d2 < best.dist2 || (d2 == best.dist2 && ids_[k] < best.index)) best = {ids_[k], d2};
+      }
+      const float certain = reach - moved;
+      if (best.index != kNotFound && best.dist2 <= certain * certain) return best;
+    }
+    return nearest_particle(c, y);
+  });
+}
+
+void project_vertices(const ShellConstraint& c, std::span<Vec3f> x) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 1024), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) x[i] = project_vertex(c, x[i]);
+  });
+}
+
+}  // namespace meniscus

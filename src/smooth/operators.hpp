@@ -1,0 +1,33 @@
+// meniscus — the smoothing operators of Williams 2008 §4: A, the unweighted graph Laplacian,
+// and B = W D⁻¹ W, the quadratic approximation of the surface bilaplacian (W the cotangent
+// Laplacian, D the vertex areas). Both are applied matrix-free from the adjacency (CSR).
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "smooth/adjacency.hpp"
+
+namespace meniscus {
+
+/// W and D on the CSR pattern of an Adjacency: w[k] = W_ij for the k-th entry of row i
+/// (W_ij = cot α_ij + cot β_ij, clamped), diag[i] = W_ii = −Σ_j W_ij, area[i] = D_ii (a third
+/// of the clamped areas of the incident triangles), b_diag[i] = B_ii = Σ_k W_ik² / D_k.
+struct CotanOperator {
+  std::vector<float> w, diag, area, b_diag;
+};
+
+/// Builds W, D and diag(B) for the current positions (parallel over vertices, no atomics).
+CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Triangle> triangles,
+                                   const Adjacency& adjacency);
+
+/// y = W x.
+void apply_w(const Adjacency& adjacency, const CotanOperator& op, std::span<const Vec3f> x, std::span<Vec3f> y);
+
+/// Energy xᵀ B x = Σ_k |(W x)_k|² / D_k (given y = W x).
+double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx);
+
+/// (B x)_i for one vertex from the current x (two rings), used by the Gauss–Seidel sweep.
+Vec3f bilaplacian_row(const Adjacency& adjacency, const CotanOperator& op, std::span<const Vec3f> x, uint32_t i);
+
+}  // namespace meniscus

@@ -1,0 +1,153 @@
+// meniscus — constrained smoothing schedule (Williams 2008 §4; Edespong 2010 §3.5).
+#include "smooth/smooth.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include "smooth/adjacency.hpp"
+#include "smooth/operators.hpp"
+
+namespace meniscus {
+
+namespace {
+
+template <class F>
+void for_each_vertex(std::size_t n, F&& f) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) f(uint32_t(i));
+  });
+}
+
+template <class F>
+void for_each_in_colors(const Coloring& coloring, F&& f) {
+  for (std::size_t c = 0; c < coloring.colors(); ++c) {
+    const uint32_t b = coloring.offsets[c], e = coloring.offsets[c + 1];
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(b, e, 512), [&](const auto& r) {
+      for (uint32_t k = r.begin(); k != r.end(); ++k) f(coloring.vertices[k]);
+    });
+  }
+}
+
+Vec3f neighbour_mean(const Adjacency& adj, std::span<const Vec3f> x, uint32_t i) {
+  const auto row = adj.row(i);
+  if (row.empty()) return x[i];
+  Vec3f sum{0, 0, 0};
+  for (uint32_t j : row) sum += x[j];
+  return sum / float(row.size());
+}
+
+double energy_of(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> x, std::vector<Vec3f>& scratch) {
+  scratch.resize(x.size());
+  apply_w(adj, op, x, scratch);
+  return bilaplacian_energy(op, scratch);
+}
+
+}  // namespace
+
+SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> triangles,
+                            const ShellConstraint* constraint, const SmoothOptions& o,
+                            const std::function<void(double)>& progress) {
+  SmoothReport report;
+  const std::size_t nv = x.size();
+  if (nv == 0) return report;
+  const Adjacency adj = build_adjacency(nv, triangles);
+  const bool gauss_seidel = o.solver == SmoothingSolver::gauss_seidel;
+  const int total = o.steps_a + o.steps_b + o.steps_free;
+  int done = 0;
+  auto tick = [&] {
+    ++done;
+    if (progress && total > 0) progress(double(done) / total);
+  };
+  // Vertices move little per sweep: the neighbour lists are rebuilt every few sweeps, and the
+  // projection falls back to the grid for any vertex that outran its list.
+  NeighbourCache cache;
+  constexpr int kCacheSweeps = 8;
+  auto refresh_cache = [&](int sweep) {
+    if (constraint && sweep % kCacheSweeps == 0) cache.build(*constraint, x);
+  };
+  auto project = [&](uint32_t i) {
+    if (constraint) x[i] = cache.project(*constraint, i, x[i]);
+  };
+
+  std::vector<Vec3f> next(nv), scratch;
+
+  // --- A: constrained graph-Laplacian sweeps ---------------------------------------------------
+  if (o.steps_a > 0) {
+    const float w = o.relax_a;
+    if (gauss_seidel) {
+      const Coloring colors = color_vertices(adj, 1);
+      report.colors_a = colors.colors();
+      for (int s = 0; s < o.steps_a; ++s, tick()) {
+        refresh_cache(s);
+        for_each_in_colors(colors, [&](uint32_t i) {
+          x[i] = x[i] + (neighbour_mean(adj, x, i) - x[i]) * w;
+          project(i);
+        });
+      }
+    } else {
+      for (int s = 0; s < o.steps_a; ++s, tick()) {
+        refresh_cache(s);
+        for_each_vertex(nv, [&](uint32_t i) { next[i] = x[i] + (neighbour_mean(adj, x, i) - x[i]) * w; });
+        x.swap(next);
+        for_each_vertex(nv, project);
+      }
+    }
+  }
+
+  // --- B: bilaplacian sweeps, constrained then free -------------------------------------------
+  const int steps_b = o.steps_b + o.steps_free;
+  if (steps_b > 0) {
+    CotanOperator op = build_cotan_operator(x, triangles, adj);
+    Coloring colors;
+    if (gauss_seidel) {
+      colors = color_vertices(adj, 2);
+      report.colors_b = colors.colors();
+    }
+    float w = o.relax_b;
+    double energy = energy_of(adj, op, x, scratch);
+    report.energy_after_a = energy;
+    std::vector<Vec3f> backup;
+    for (int s = 0; s < steps_b; ++s) {
+      const bool constrained = s < o.steps_b && constraint != nullptr;
+      if (o.rebuild_b > 0 && s > 0 && s % o.rebuild_b == 0) {
+        op = build_cotan_operator(x, triangles, adj);
+        energy = energy_of(adj, op, x, scratch);
+      }
+      if (constrained) refresh_cache(s);
+      backup = x;
+      if (gauss_seidel) {
+        for_each_in_colors(colors, [&](uint32_t i) {
+          x[i] -= bilaplacian_row(adj, op, x, i) * (w / op.b_diag[i]);
+          if (constrained) project(i);
+        });
+      } else {
+        // scratch = W x was computed by energy_of for the current x.
+        std::vector<Vec3f> z(nv);
+        for_each_vertex(nv, [&](uint32_t i) { z[i] = scratch[i] / op.area[i]; });
+        apply_w(adj, op, z, next);  // next = B x
+        for_each_vertex(nv, [&](uint32_t i) {
+          x[i] -= next[i] * (w / op.b_diag[i]);
+          if (constrained) project(i);
+        });
+      }
+      const double e = energy_of(adj, op, x, scratch);
+      // A free sweep of a convergent solver never raises xᵀBx; a constrained one may a little
+      // (the projection is not a descent step), but a large rise means the sweep diverges.
+      const double tolerance = constrained ? 0.05 : 1e-4;
+      if (e > energy * (1.0 + tolerance) && w > 1.0f / 64) {
+        x.swap(backup);
+        w *= 0.5f;
+        ++report.relax_halvings;
+        energy_of(adj, op, x, scratch);
+        --s;  // redo this sweep with the smaller ω
+        continue;
+      }
+      energy = e;
+      tick();
+    }
+    report.energy_final = energy;
+    report.relax_b_final = w;
+  }
+  return report;
+}
+
+}  // namespace meniscus

@@ -1,0 +1,39 @@
+// meniscus — the constrained smoothing schedule of Williams 2008 §4: constrained A sweeps
+// (graph Laplacian, shrinks the bumpy extraction onto the particles), constrained B sweeps
+// (bilaplacian: minimises curvature variation while every vertex stays between r_inner and
+// r_outer of its nearest particle), then a few unconstrained B sweeps that smooth the normals.
+#pragma once
+
+#include <functional>
+#include <span>
+#include <vector>
+
+#include "meniscus/mesh.hpp"
+#include "meniscus/params.hpp"
+#include "smooth/constraints.hpp"
+
+namespace meniscus {
+
+struct SmoothOptions {
+  int steps_a = 40, steps_b = 20, steps_free = 3;
+  float relax_a = 1.0f;   ///< ω of the A sweeps
+  float relax_b = 1.0f;   ///< initial ω of the B sweeps; halved whenever a sweep raises the energy
+  SmoothingSolver solver = SmoothingSolver::gauss_seidel;
+  int rebuild_b = 0;      ///< rebuild W and D every k B sweeps; 0: once, from the shrunk mesh
+};
+
+struct SmoothReport {
+  double energy_after_a = 0;   ///< xᵀBx when the B sweeps start
+  double energy_final = 0;     ///< xᵀBx at the end (same operator)
+  int relax_halvings = 0;      ///< times the B damping was halved because the energy rose
+  float relax_b_final = 0;
+  std::size_t colors_a = 0, colors_b = 0;  ///< Gauss–Seidel colour classes
+};
+
+/// Runs the schedule on `x` (in place). `constraint` may be null (no projection at all).
+/// `progress` receives the completed fraction of all sweeps.
+SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> triangles,
+                            const ShellConstraint* constraint, const SmoothOptions& options,
+                            const std::function<void(double)>& progress = {});
+
+}  // namespace meniscus

@@ -1,0 +1,48 @@
+// meniscus — area-weighted vertex normals and erosion (DESIGN §1.5).
+#include "transfer/normals.hpp"
+
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include "smooth/adjacency.hpp"
+
+namespace meniscus {
+
+std::vector<Vec3f> vertex_normals(std::span<const Vec3f> x, std::span<const Triangle> triangles) {
+  const Adjacency adj = build_adjacency(x.size(), triangles);
+  std::vector<Vec3f> n(x.size());
+  // Gather per vertex (not scatter per triangle), so threads never write the same normal.
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 2048), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      Vec3f sum{0, 0, 0};
+      for (uint32_t k = adj.tri_offsets[i]; k < adj.tri_offsets[i + 1]; ++k) {
+        const Triangle& t = triangles[adj.tri_ids[k]];
+        sum += cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
+      }
+      n[i] = normalized(sum);
+    }
+  });
+  return n;
+}
+
+std::size_t erode(std::vector<Vec3f>& x, std::span<const Triangle> triangles, float distance) {
+  const std::vector<Vec3f> n = vertex_normals(x, triangles);
+  std::vector<Vec3f> before_normal(triangles.size());
+  tbb::parallel_for(std::size_t(0), triangles.size(), [&](std::size_t f) {
+    const Triangle& t = triangles[f];
+    before_normal[f] = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
+  });
+  tbb::parallel_for(std::size_t(0), x.size(), [&](std::size_t i) { x[i] -= n[i] * distance; });
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, triangles.size(), 4096), std::size_t(0),
+      [&](const auto& r, std::size_t flipped) {
+        for (std::size_t f = r.begin(); f != r.end(); ++f) {
+          const Triangle& t = triangles[f];
+          flipped += dot(cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]), before_normal[f]) < 0.0f;
+        }
+        return flipped;
+      },
+      std::plus<>());
+}
+
+}  // namespace meniscus

@@ -1,0 +1,150 @@
+// Tests of the A and B operators against a dense reference assembled per triangle.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <random>
+
+#include "smooth/adjacency.hpp"
+#include "smooth/cotangent_impl.hpp"
+#include "smooth/operators.hpp"
+
+namespace meniscus {
+namespace {
+
+// A subdivided octahedron projected on the unit sphere, then perturbed: a closed mesh with
+// valences 4 and 6 and irregular triangles.
+TriangleMesh perturbed_sphere(int subdivisions, float noise, uint32_t seed) {
+  TriangleMesh m;
+  m.vertices = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  m.triangles = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+  for (int s = 0; s < subdivisions; ++s) {
+    std::vector<Triangle> next;
+    std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
+    auto midpoint = [&](uint32_t a, uint32_t b) {
+      auto key = std::minmax(a, b);
+      auto it = mid.find(key);
+      if (it != mid.end()) return it->second;
+      m.vertices.push_back(normalized((m.vertices[a] + m.vertices[b]) * 0.5f));
+      return mid[key] = uint32_t(m.vertices.size() - 1);
+    };
+    for (const Triangle& t : m.triangles) {
+      const uint32_t a = midpoint(t[0], t[1]), b = midpoint(t[1], t[2]), c = midpoint(t[2], t[0]);
+      next.push_back({t[0], a, c});
+      next.push_back({a, t[1], b});
+      next.push_back({c, b, t[2]});
+      next.push_back({a, b, c});
+    }
+    m.triangles = next;
+  }
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-noise, noise);
+  for (auto& v : m.vertices) v += Vec3f{u(rng), u(rng), u(rng)};
+  return m;
+}
+
+TEST(Adjacency, OctahedronRowsAreSortedNeighbours) {
+  const TriangleMesh m = perturbed_sphere(0, 0, 1);
+  const Adjacency adj = build_adjacency(m.vertices.size(), m.triangles);
+  ASSERT_EQ(adj.vertex_count(), 6u);
+  const std::vector<uint32_t> expected0{2, 3, 4, 5};  // all but itself and its antipode 1
+  EXPECT_EQ(std::vector<uint32_t>(adj.row(0).begin(), adj.row(0).end()), expected0);
+  for (uint32_t i = 0; i < 6; ++i) {
+    EXPECT_EQ(adj.row(i).size(), 4u);
+    EXPECT_EQ(adj.tri_offsets[i + 1] - adj.tri_offsets[i], 4u);
+  }
+}
+
+TEST(Adjacency, ColoringsAreIndependentSets) {
+  const TriangleMesh m = perturbed_sphere(3, 0.01f, 2);
+  const Adjacency adj = build_adjacency(m.vertices.size(), m.triangles);
+  for (int distance : {1, 2}) {
+    const Coloring c = color_vertices(adj, distance);
+    std::vector<int> color(m.vertices.size(), -1);
+    for (std::size_t k = 0; k < c.colors(); ++k)
+      for (uint32_t i = c.offsets[k]; i < c.offsets[k + 1]; ++i) color[c.vertices[i]] = int(k);
+    for (int v : color) ASSERT_GE(v, 0);
+    for (uint32_t i = 0; i < m.vertices.size(); ++i)
+      for (uint32_t j : adj.row(i)) {
+        ASSERT_NE(color[i], color[j]);
+        if (distance == 2) {
+          for (uint32_t k : adj.row(j)) {
+            if (k != i) {
+              ASSERT_NE(color[i], color[k]);
+            }
+          }
+        }
+      }
+    EXPECT_LE(c.colors(), distance == 1 ? 8u : 32u);
+  }
+}
+
+TEST(CotanOperator, RegularOctahedronHasTheClosedFormWeights) {
+  const TriangleMesh m = perturbed_sphere(0, 0, 1);
+  const Adjacency adj = build_adjacency(m.vertices.size(), m.triangles);
+  const CotanOperator op = build_cotan_operator(m.vertices, m.triangles, adj);
+  const float cot60 = 1.0f / std::sqrt(3.0f);
+  for (float w : op.w) EXPECT_NEAR(w, 2 * cot60, 1e-5f);
+  const float area = std::sqrt(3.0f) / 4 * 2;  // equilateral, side √2
+  for (std::size_t i = 0; i < 6; ++i) {
+    EXPECT_NEAR(op.area[i], 4 * area / 3, 1e-5f);
+    EXPECT_NEAR(op.diag[i], -8 * cot60, 1e-5f);
+  }
+}
+
+TEST(CotanOperator, MatchesADenseReferenceOnAnIrregularMesh) {
+  const TriangleMesh m = perturbed_sphere(2, 0.04f, 9);
+  const std::size_t n = m.vertices.size();
+  const Adjacency adj = build_adjacency(n, m.triangles);
+  const CotanOperator op = build_cotan_operator(m.vertices, m.triangles, adj);
+
+  // Dense W and D assembled by scattering per triangle (the textbook form).
+  std::vector<double> W(n * n, 0.0), D(n, 0.0);
+  for (const Triangle& t : m.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = t[k], b = t[(k + 1) % 3], c = t[(k + 2) % 3];
+      const double cot = clamped_cotangent(m.vertices[c], m.vertices[a], m.vertices[b]);  // opposite edge (a,b)
+      W[a * n + b] += cot;
+      W[b * n + a] += cot;
+      D[a] += clamped_area(m.vertices[t[0]], m.vertices[t[1]], m.vertices[t[2]]) / 3.0;
+    }
+  for (std::size_t i = 0; i < n; ++i) {
+    double s = 0;
+    for (std::size_t j = 0; j < n; ++j) s += W[i * n + j];
+    W[i * n + i] = -s;
+  }
+  for (std::size_t i = 0; i < n; ++i) ASSERT_NEAR(op.area[i], D[i], 1e-5);
+
+  // B = W D⁻¹ W; compare diag(B), B x and the energy.
+  std::vector<double> Bx(n * 3, 0.0), Wx(n * 3, 0.0);
+  for (std::size_t k = 0; k < n; ++k)
+    for (std::size_t j = 0; j < n; ++j)
+      for (int c = 0; c < 3; ++c) Wx[k * 3 + c] += W[k * n + j] * m.vertices[j][c];
+  double energy = 0;
+  for (std::size_t k = 0; k < n; ++k)
+    for (int c = 0; c < 3; ++c) energy += Wx[k * 3 + c] * Wx[k * 3 + c] / D[k];
+  for (std::size_t i = 0; i < n; ++i) {
+    double bii = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      bii += W[i * n + k] * W[k * n + i] / D[k];
+      for (int c = 0; c < 3; ++c) Bx[i * 3 + c] += W[i * n + k] / D[k] * Wx[k * 3 + c];
+    }
+    EXPECT_NEAR(op.b_diag[i], bii, 1e-3 * std::abs(bii));
+    const Vec3f row = bilaplacian_row(adj, op, m.vertices, uint32_t(i));
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(row[c], Bx[i * 3 + c], 1e-3 * (1 + std::abs(Bx[i * 3 + c])));
+  }
+  std::vector<Vec3f> wx(n);
+  apply_w(adj, op, m.vertices, wx);
+  EXPECT_NEAR(bilaplacian_energy(op, wx), energy, 1e-4 * energy);
+}
+
+TEST(CotanOperator, ClampsSliversAndObtuseAngles) {
+  // A needle triangle: the angle at the apex is ~0 (huge cotangent) and one angle is obtuse.
+  const Vec3f a{0, 0, 0}, b{1, 0, 0}, c{0.5f, 1e-6f, 0};
+  EXPECT_LE(clamped_cotangent(a, b, c), 1.0f / kMinSine + 1e-3f);
+  EXPECT_GE(clamped_cotangent(c, a, b), kMinCotangent);  // obtuse: cot < 0 is clamped
+  EXPECT_GE(clamped_area(a, b, c), 0.5f * kMinSine * 1.0f * length(c - a) - 1e-6f);
+}
+
+}  // namespace
+}  // namespace meniscus

@@ -1,0 +1,181 @@
+// meniscus io — format tables and the public entry points of io.hpp (format choice, gzip, NaN policy).
+#include "io/format_registry.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+
+#include <fmt/format.h>
+
+#include "io/ply.hpp"
+#include "io/xyz.hpp"
+#include "meniscus/errors.hpp"
+
+namespace meniscus::io {
+
+const std::vector<ParticleReader>& particle_readers() {
+  static const std::vector<ParticleReader> table = {
+      {"ply", {".ply"}, &sniff_ply, &read_ply_particles},
+      {"xyz", {".xyz"}, nullptr, &read_xyz_particles},
+  };
+  return table;
+}
+
+const std::vector<MeshReader>& mesh_readers() {
+  static const std::vector<MeshReader> table = {
+      {"ply", {".ply"}, &sniff_ply, &read_ply_mesh},
+  };
+  return table;
+}
+
+const std::vector<MeshWriter>& mesh_writers() {
+  static const std::vector<MeshWriter> table = {
+      {"ply", {".ply"}, &write_ply_mesh},
+  };
+  return table;
+}
+
+std::string format_extension(const std::string& path) {
+  std::filesystem::path p(path);
+  auto lower = [](std::string s) {
+    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    return s;
+  };
+  std::string ext = lower(p.extension().string());
+  if (ext == ".gz") ext = lower(p.stem().extension().string());
+  return ext;
+}
+
+namespace {
+
+template <class Table>
+std::string list_formats(const Table& table) {
+  std::string text;
+  for (const auto& entry : table)
+    for (const std::string& ext : entry.extensions) text += (text.empty() ? "" : ", ") + ext;
+  return text;
+}
+
+// Magic bytes win over the name: a mislabelled file is read as what it is, and formats without
+// magic (xyz) are only ever chosen by name.
+template <class Table>
+const typename Table::value_type* choose(const Table& table, const Source& source) {
+  for (const auto& entry : table)
+    if (entry.sniff && entry.sniff(source.bytes)) return &entry;
+  const std::string ext = format_extension(source.path);
+  for (const auto& entry : table)
+    if (std::find(entry.extensions.begin(), entry.extensions.end(), ext) != entry.extensions.end()) return &entry;
+  return nullptr;
+}
+
+template <class Table>
+[[noreturn]] void unknown_format(const Table& table, const Source& source, const char* what) {
+  const std::string ext = format_extension(source.path);
+  throw FormatError(source.path, "",
+                    fmt::format("unknown {} format ({}); expected one of the supported formats: {}", what,
+                                ext.empty() ? "no extension and no known magic bytes"
+                                            : "extension '" + ext + "' and no known magic bytes",
+                                list_formats(table)));
+}
+
+bool finite(Vec3f p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
+
+// One NaN/Inf policy for every format: refuse by default (naming the first bad particle), or drop
+// the particle and its attribute values when asked.
+void handle_invalid(ParticleSet& particles, const std::string& path, const ReadOptions& options,
+                    ReadReport* report) {
+  const std::size_t n = particles.positions.size();
+  std::size_t first_bad = n;
+  for (std::size_t i = 0; i < n; ++i)
+    if (!finite(particles.positions[i])) {
+      first_bad = i;
+      break;
+    }
+  if (first_bad == n) return;
+  if (!options.drop_invalid) {
+    const Vec3f p = particles.positions[first_bad];
+    throw FormatError(path, fmt::format("particle {}", first_bad),
+                      fmt::format("expected finite coordinates, found ({}, {}, {}) (ReadOptions::drop_invalid "
+                                  "drops such particles)",
+                                  p.x, p.y, p.z));
+  }
+  std::size_t kept = first_bad;
+  for (std::size_t i = first_bad; i < n; ++i) {
+    if (!finite(particles.positions[i])) continue;
+    particles.positions[kept] = particles.positions[i];
+    for (Attribute& a : particles.attributes) {
+      const std::size_t c = std::size_t(a.components);
+      std::copy_n(a.values.begin() + std::ptrdiff_t(i * c), c, a.values.begin() + std::ptrdiff_t(kept * c));
+    }
+    ++kept;
+  }
+  particles.positions.resize(kept);
+  for (Attribute& a : particles.attributes) a.values.resize(kept * std::size_t(a.components));
+  if (report) report->dropped_invalid += n - kept;
+}
+
+}  // namespace
+
+}  // namespace meniscus::io
+
+namespace meniscus {
+
+ParticleSet read_particles(const std::string& path, const ReadOptions& options, ReadReport* report) {
+  bool gzip = false;
+  const io::Bytes bytes = io::read_file_bytes_gunzipped(path, &gzip);
+  const io::Source source{bytes, path, gzip};
+  const io::ParticleReader* reader = io::choose(io::particle_readers(), source);
+  if (!reader) io::unknown_format(io::particle_readers(), source, "particle");
+
+  ReadReport local;
+  ReadReport& r = report ? *report : local;
+  r = ReadReport{};
+  r.format = reader->name;
+  ParticleSet particles = reader->read(source, options, &r);
+  if (gzip) r.format += ", gzip-compressed";
+  particles.validate();
+  io::handle_invalid(particles, path, options, &r);
+  if (particles.positions.empty())
+    throw FormatError(path, "",
+                      r.dropped_invalid > 0
+                          ? fmt::format("contains no particles once the {} with NaN/Inf coordinates are dropped",
+                                        r.dropped_invalid)
+                          : std::string("contains no particles"));
+  return particles;
+}
+
+TriangleMesh read_mesh(const std::string& path) {
+  bool gzip = false;
+  const io::Bytes bytes = io::read_file_bytes_gunzipped(path, &gzip);
+  const io::Source source{bytes, path, gzip};
+  const io::MeshReader* reader = io::choose(io::mesh_readers(), source);
+  if (!reader) io::unknown_format(io::mesh_readers(), source, "mesh");
+  return reader->read(source);
+}
+
+void write_mesh(const std::string& path, const TriangleMesh& mesh) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  std::string lower = ext;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  for (const io::MeshWriter& writer : io::mesh_writers())
+    if (std::find(writer.extensions.begin(), writer.extensions.end(), lower) != writer.extensions.end())
+      return writer.write(path, mesh);
+  throw InvalidParameter(fmt::format("cannot write '{}': unknown mesh format '{}'; supported: {}", path,
+                                     ext.empty() ? "(no extension)" : ext, io::list_formats(io::mesh_writers())));
+}
+
+std::vector<std::string> particle_formats() {
+  std::vector<std::string> out;
+  for (const io::ParticleReader& r : io::particle_readers())
+    out.insert(out.end(), r.extensions.begin(), r.extensions.end());
+  return out;
+}
+
+std::vector<std::string> mesh_formats() {
+  std::vector<std::string> out;
+  for (const io::MeshWriter& w : io::mesh_writers()) out.insert(out.end(), w.extensions.begin(), w.extensions.end());
+  return out;
+}
+
+}  // namespace meniscus

@@ -1,0 +1,55 @@
+// meniscus — the parameters of a reconstruction. Lengths are in world units; a value of 0
+// means "derive it" (from the particle spacing d) and is replaced by the value actually used
+// in Result::params.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace meniscus {
+
+enum class Extractor { tiles, cubes, tetrahedra };
+enum class SmoothingSolver { jacobi, gauss_seidel };
+
+const char* to_string(Extractor e);
+const char* to_string(SmoothingSolver s);
+/// Parses "tiles" | "cubes" | "tetrahedra"; throws InvalidParameter otherwise.
+Extractor parse_extractor(const std::string& name);
+/// Parses "jacobi" | "gauss-seidel"; throws InvalidParameter otherwise.
+SmoothingSolver parse_solver(const std::string& name);
+
+struct Params {
+  // --- geometry -------------------------------------------------------------------------------
+  double spacing = 0;          ///< particle separation d; 0: median nearest-neighbour distance
+  double voxel_size = 0;       ///< field resolution h; 0: d / 2
+  double r_outer = 0;          ///< initial surface = union of spheres of this radius; 0: 1.0 d
+  double r_inner = 0;          ///< vertices are kept at least this far from particles; 0: 0.5 d
+  Extractor extract = Extractor::tiles;
+  /// Keep interior voids smaller than (2d)³ (closed inward-facing components: gaps in the
+  /// particle sampling, which the smoothing would collapse); by default they are removed.
+  bool keep_voids = false;
+
+  // --- smoothing schedule (Williams 2008) -------------------------------------------------------
+  int steps_a = 40;            ///< constrained graph-Laplacian (A) sweeps
+  int steps_b = 20;            ///< constrained bilaplacian (B) sweeps
+  int steps_free = 3;          ///< unconstrained B sweeps at the end
+  double relax = 1.0;          ///< damping ω of the A sweeps (B sweeps use the energy-guarded relax_b)
+  double relax_b = 1.0;        ///< damping of the B sweeps (halved automatically when energy rises)
+  SmoothingSolver solver = SmoothingSolver::gauss_seidel;
+  int rebuild_b = 0;           ///< rebuild the B operator every k sweeps; 0: build once after A
+
+  // --- post-processing ------------------------------------------------------------------------
+  double erode = 0;                    ///< move vertices inwards along the normal by this much
+  std::vector<std::string> transfer;   ///< particle attributes to carry onto the vertices
+  double transfer_radius = 0;          ///< 0: 2 d
+
+  // --- execution ------------------------------------------------------------------------------
+  int threads = 0;                     ///< 0: all hardware threads
+  double max_memory_gb = 0;            ///< refuse jobs estimated above this; 0: 90 % of RAM
+
+  /// Throws InvalidParameter naming the first parameter that is out of range or inconsistent.
+  /// Zero ("derive") values are accepted; call after resolve() to check the derived ones too.
+  void validate() const;
+};
+
+}  // namespace meniscus

@@ -1,0 +1,70 @@
+// meniscus — mesh quality metrics (DESIGN §5): topology, valence, angles, constraint residual,
+// flatness, volume. Independent of the pipeline: they judge any mesh, ours or another tool's.
+#pragma once
+
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include "meniscus/mesh.hpp"
+#include "meniscus/particles.hpp"
+
+namespace meniscus {
+
+struct TopologyReport {
+  std::size_t vertices = 0, triangles = 0, edges = 0;
+  std::size_t boundary_edges = 0;        ///< edges with one incident triangle
+  std::size_t nonmanifold_edges = 0;     ///< edges with more than two incident triangles
+  std::size_t misoriented_edges = 0;     ///< edges whose two triangles traverse it the same way
+  std::size_t nonmanifold_vertices = 0;  ///< vertices whose triangle fan is not a single disk
+  std::size_t degenerate_triangles = 0;  ///< repeated index or zero area
+  std::size_t unreferenced_vertices = 0;
+  std::size_t components = 0;            ///< connected components (by shared edges)
+  long long euler = 0;                   ///< V − E + F over referenced vertices
+
+  bool closed() const { return boundary_edges == 0; }
+  bool edge_manifold() const { return nonmanifold_edges == 0; }
+  bool oriented() const { return misoriented_edges == 0; }
+  bool watertight() const {
+    return closed() && edge_manifold() && oriented() && nonmanifold_vertices == 0;
+  }
+};
+TopologyReport analyze_topology(const TriangleMesh& mesh);
+
+struct ValenceReport {
+  int min = 0, max = 0;
+  double mean = 0;
+  std::size_t below_5 = 0;                  ///< vertices with valence < 5
+  std::vector<std::size_t> histogram;       ///< histogram[v] = vertices of valence v
+};
+/// Valence = number of distinct neighbours over edges. Unreferenced vertices are ignored.
+ValenceReport valence(const TriangleMesh& mesh);
+
+struct AngleReport {
+  double min_degrees = 0, max_degrees = 0;
+  double share_below_10 = 0;  ///< fraction of angles under 10°
+};
+AngleReport triangle_angles(const TriangleMesh& mesh);
+
+/// Signed volume enclosed by the mesh (positive when triangles face outwards).
+double signed_volume(const TriangleMesh& mesh);
+
+struct ConstraintReport {
+  double max_violation = 0;   ///< max over vertices of the distance outside [r_inner, r_outer]
+  double min_distance = 0;    ///< min over vertices of the distance to the nearest particle
+  double max_distance = 0;    ///< max over vertices of the distance to the nearest particle
+};
+/// Distance of every vertex to its nearest particle against [r_inner, r_outer].
+ConstraintReport constraint_residual(std::span<const Vec3f> vertices, std::span<const Vec3f> particles,
+                                     double r_inner, double r_outer);
+
+struct PlaneFit {
+  Vec3f normal, centroid;
+  double rms = 0;        ///< RMS distance of the points to the best-fit plane
+  double max_abs = 0;    ///< largest distance
+  std::size_t count = 0;
+};
+/// Least-squares plane through the points (smallest eigenvector of the covariance).
+PlaneFit fit_plane(std::span<const Vec3f> points);
+
+}  // namespace meniscus

@@ -1,0 +1,66 @@
+// meniscus — parameter names and validation.
+#include "meniscus/params.hpp"
+
+#include <cmath>
+#include <fmt/format.h>
+
+#include "meniscus/errors.hpp"
+
+namespace meniscus {
+
+const char* to_string(Extractor e) {
+  switch (e) {
+    case Extractor::tiles: return "tiles";
+    case Extractor::cubes: return "cubes";
+    case Extractor::tetrahedra: return "tetrahedra";
+  }
+  return "?";
+}
+
+const char* to_string(SmoothingSolver s) { return s == SmoothingSolver::jacobi ? "jacobi" : "gauss-seidel"; }
+
+Extractor parse_extractor(const std::string& name) {
+  if (name == "tiles") return Extractor::tiles;
+  if (name == "cubes") return Extractor::cubes;
+  if (name == "tetrahedra") return Extractor::tetrahedra;
+  throw InvalidParameter(fmt::format("extract: unknown extractor '{}' (expected tiles, cubes or tetrahedra)", name));
+}
+
+SmoothingSolver parse_solver(const std::string& name) {
+  if (name == "jacobi") return SmoothingSolver::jacobi;
+  if (name == "gauss-seidel") return SmoothingSolver::gauss_seidel;
+  throw InvalidParameter(fmt::format("solver: unknown solver '{}' (expected jacobi or gauss-seidel)", name));
+}
+
+namespace {
+void require(bool ok, const char* name, double value, const char* expectation) {
+  if (!ok) throw InvalidParameter(fmt::format("{} = {:g}: {}", name, value, expectation));
+}
+void length_param(const char* name, double value) {
+  require(std::isfinite(value) && value >= 0, name, value, "must be a finite length ≥ 0 (0 = derive from the spacing)");
+}
+}  // namespace
+
+void Params::validate() const {
+  length_param("spacing", spacing);
+  length_param("voxel_size", voxel_size);
+  length_param("r_outer", r_outer);
+  length_param("r_inner", r_inner);
+  length_param("erode", erode);
+  length_param("transfer_radius", transfer_radius);
+  if (r_inner > 0 && r_outer > 0)
+    require(r_inner < r_outer, "r_inner", r_inner, fmt::format("must be smaller than r_outer ({:g})", r_outer).c_str());
+  if (voxel_size > 0 && r_outer > 0)
+    require(voxel_size <= 2 * r_outer, "voxel_size", voxel_size,
+            fmt::format("must be at most 2·r_outer ({:g}); the surface would not be resolved", 2 * r_outer).c_str());
+  require(steps_a >= 0, "steps_a", steps_a, "must be ≥ 0");
+  require(steps_b >= 0, "steps_b", steps_b, "must be ≥ 0");
+  require(steps_free >= 0, "steps_free", steps_free, "must be ≥ 0");
+  require(std::isfinite(relax) && relax > 0 && relax <= 1, "relax", relax, "must be in (0, 1]");
+  require(std::isfinite(relax_b) && relax_b > 0 && relax_b < 2, "relax_b", relax_b, "must be in (0, 2)");
+  require(rebuild_b >= 0, "rebuild_b", rebuild_b, "must be ≥ 0");
+  require(threads >= 0, "threads", threads, "must be ≥ 0 (0 = all cores)");
+  require(std::isfinite(max_memory_gb) && max_memory_gb >= 0, "max_memory_gb", max_memory_gb, "must be ≥ 0");
+}
+
+}  // namespace meniscus

@@ -1,0 +1,304 @@
+// meniscus — the pipeline: runs the stages in order, times them, reports progress
+// (DESIGN §1: hash grid → sparse distance field → extraction → weld → constrained smoothing →
+// erosion → attribute transfer → normals).
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <optional>
+
+#include "extract/extract.hpp"
+#include "field/distance_field.hpp"
+#include "grid/hash_grid.hpp"
+#include "mesh/voids.hpp"
+#include "meniscus/errors.hpp"
+#include "meniscus/reconstruct.hpp"
+#include "smooth/smooth.hpp"
+#include "transfer/attribute_transfer.hpp"
+#include "transfer/normals.hpp"
+
+namespace meniscus {
+
+const char* version() { return MENISCUS_VERSION; }
+
+double Stats::total_seconds() const {
+  double t = 0;
+  for (const StageTime& s : stages) t += s.seconds;
+  return t;
+}
+
+namespace {
+
+std::size_t peak_rss_bytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return std::size_t(usage.ru_maxrss) * 1024;
+}
+
+double physical_memory_gb() {
+  const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && size > 0 ? double(pages) * double(size) / 1e9 : 16.0;
+}
+
+class StageTimer {
+ public:
+  StageTimer(Stats& stats, const ProgressFn& progress) : stats_(stats), progress_(progress) {}
+  template <class F>
+  auto run(const char* name, F&& f) {
+    if (progress_) progress_(name, 0.0);
+    const auto t0 = std::chrono::steady_clock::now();
+    if constexpr (std::is_void_v<decltype(f())>) {
+      f();
+      finish(name, t0);
+    } else {
+      auto result = f();
+      finish(name, t0);
+      return result;
+    }
+  }
+
+ private:
+  void finish(const char* name, std::chrono::steady_clock::time_point t0) {
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    stats_.stages.push_back({name, s});
+    if (progress_) progress_(name, 1.0);
+  }
+  Stats& stats_;
+  const ProgressFn& progress_;
+};
+
+void check_particles(const ParticleSet& particles) {
+  particles.validate();
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    const Vec3f p = particles.positions[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      throw InvalidParameter(fmt::format("particle {} has a non-finite coordinate ({}, {}, {})", i, p.x, p.y, p.z));
+  }
+}
+
+/// Refuses, before allocating, a field that would not fit in `max_bytes`.
+std::vector<uint64_t> checked_band_blocks(const HashGrid& grid, const SampleLattice& lattice, float band,
+                                          double max_bytes, const Params& p) {
+  // Upper bound on the keys band_blocks() would list (each occupied hash cell's box expanded by
+  // the band, in blocks), so an absurd voxel size is refused before the key list is built.
+  const double block_size = double(lattice.cell_size) * lattice.block_cells();
+  const double span = (double(grid.cell_size()) + 2.0 * band) / block_size + 1.0;
+  const double bound = double(grid.cell_keys().size()) * span * span * span;
+  const auto refuse = [&](double blocks) {
+    throw ResourceError(fmt::format(
+        "the distance field would need about {:.1f} GB ({:.3g} blocks of {} samples at voxel size {:g}), more than "
+        "the {:.1f} GB allowed; use a larger --voxel-size or raise --max-memory",
+        blocks * kBlockSamples * 4 / 1e9, blocks, kBlockSamples, p.voxel_size, max_bytes / 1e9));
+  };
+  if (bound * 8.0 > max_bytes) refuse(bound);
+  std::vector<uint64_t> keys = band_blocks(grid, lattice, band);
+  if (double(keys.size()) * (kBlockSamples * 4 + 20) > max_bytes) refuse(double(keys.size()));
+  return keys;
+}
+
+}  // namespace
+
+double estimate_spacing(const ParticleSet& particles, std::size_t max_samples) {
+  const std::size_t n = particles.size();
+  if (n < 2) throw InvalidParameter("cannot estimate the particle spacing from fewer than 2 particles; pass --spacing");
+  Vec3f lo = particles.positions[0], hi = lo;
+  for (const Vec3f& p : particles.positions) lo = min(lo, p), hi = max(hi, p);
+  const Vec3f ext = hi - lo;
+  const double diag = length(ext);
+  if (!(diag > 0)) throw InvalidParameter("all particles are at the same position; cannot estimate the spacing");
+  // A cell size of about one particle per cell if they filled their bounding box (a lower
+  // bound on the volume: flat sets use the area instead).
+  double volume = double(std::max(ext.x, 1e-6f * float(diag))) * std::max(ext.y, 1e-6f * float(diag)) *
+                  std::max(ext.z, 1e-6f * float(diag));
+  const float cell = float(std::max(std::cbrt(volume / double(n)), diag * 1e-5));
+  const HashGrid grid(particles.positions, cell);
+  const std::size_t samples = std::min(n, max_samples);
+  const std::size_t stride = n / samples;
+  std::vector<float> nn(samples, -1.0f);
+  tbb::parallel_for(std::size_t(0), samples, [&](std::size_t s) {
+    const Vec3f p = particles.positions[s * stride];
+    for (float r = cell; r <= 2.0f * float(diag) + cell; r *= 2.0f) {
+      float best = INFINITY;
+      grid.for_each_within(p, r, [&](uint32_t, float d2) {
+        if (d2 > 0 && d2 < best) best = d2;
+      });
+      if (best <= r * r) {
+        nn[s] = std::sqrt(best);
+        return;
+      }
+    }
+  });
+  nn.erase(std::remove(nn.begin(), nn.end(), -1.0f), nn.end());
+  if (nn.empty()) throw InvalidParameter("cannot estimate the particle spacing: no two distinct particles");
+  auto mid = nn.begin() + std::ptrdiff_t(nn.size() / 2);
+  std::nth_element(nn.begin(), mid, nn.end());
+  const float median_nn = *mid;
+
+  // Local density spacing: (ball volume / particles in the ball)^(1/3).
+  const float radius = 2.5f * median_nn;
+  const HashGrid density_grid(particles.positions, radius);
+  std::vector<float> local(samples);
+  tbb::parallel_for(std::size_t(0), samples, [&](std::size_t s) {
+    std::size_t count = 0;
+    density_grid.for_each_within(particles.positions[s * stride], radius, [&](uint32_t, float) { ++count; });
+    local[s] = std::cbrt(4.18879f * radius * radius * radius / float(std::max<std::size_t>(count, 1)));
+  });
+  auto quartile = local.begin() + std::ptrdiff_t(local.size() / 4);
+  std::nth_element(local.begin(), quartile, local.end());
+  return double(std::max(median_nn, *quartile));
+}
+
+Params resolve_params(const ParticleSet& particles, const Params& in) {
+  in.validate();
+  Params p = in;
+  if (p.spacing == 0) p.spacing = estimate_spacing(particles);
+  const double d = p.spacing;
+  if (p.voxel_size == 0) p.voxel_size = d / 2;
+  if (p.r_outer == 0) p.r_outer = std::max(1.0 * d, in.r_inner > 0 ? in.r_inner * 2 : 0.0);
+  if (p.r_inner == 0) p.r_inner = 0.5 * p.r_outer;
+  if (p.transfer_radius == 0) p.transfer_radius = 2 * d;
+  if (p.threads == 0) p.threads = tbb::info::default_concurrency();
+  if (p.max_memory_gb == 0) p.max_memory_gb = 0.9 * physical_memory_gb();
+  p.validate();
+  return p;
+}
+
+Result reconstruct(const ParticleSet& particles, const Params& params, const ProgressFn& progress) {
+  Result result;
+  Stats& stats = result.stats;
+  check_particles(particles);
+  if (particles.size() == 0) throw InvalidParameter("no particles to surface");
+  for (const std::string& name : params.transfer)
+    if (!particles.find(name)) {
+      std::string available;
+      for (const Attribute& a : particles.attributes) available += (available.empty() ? "" : ", ") + a.name;
+      throw InvalidParameter(fmt::format("transfer: the particles have no attribute '{}' (they have: {})", name,
+                                         available.empty() ? "none" : available));
+    }
+
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                              std::size_t(params.threads > 0 ? params.threads : tbb::info::default_concurrency()));
+  StageTimer timer(stats, progress);
+  Params p = timer.run("parameters", [&] { return resolve_params(particles, params); });
+  result.params = p;
+  stats.spacing_estimated = params.spacing == 0;
+  stats.particles = particles.size();
+  stats.threads = p.threads;
+  const double d = p.spacing, h = p.voxel_size;
+  if (p.r_outer * p.r_outer <= d * d / 2 + p.r_inner * p.r_inner)
+    stats.warnings.push_back(fmt::format(
+        "r_outer² ≤ d²/2 + r_inner² (Williams' flatness condition): flat fluid will not come out flat "
+        "(r_outer {:g}, r_inner {:g}, spacing {:g})",
+        p.r_outer, p.r_inner, d));
+  if (p.erode > h / 2)
+    stats.warnings.push_back(
+        fmt::format("erode {:g} exceeds half a voxel ({:g}); large erosion can self-intersect", p.erode, h / 2));
+
+  const float r_outer = float(p.r_outer), r_inner = float(p.r_inner);
+  // Cells of 2·r_outer: a nearest-particle query for a vertex near the surface then touches
+  // about 8 cells of a few particles each, far fewer hash lookups than with r_outer cells.
+  const HashGrid grid = timer.run("grid", [&] { return HashGrid(particles.positions, 2 * r_outer); });
+
+  SampleLattice lattice;
+  lattice.kind = p.extract == Extractor::tiles ? SampleLattice::Kind::a15 : SampleLattice::Kind::cubic;
+  lattice.cell_size = float(p.extract == Extractor::tiles ? 2 * h : h);
+  const float band = float(p.r_outer + 2 * h);
+  const double max_bytes = p.max_memory_gb * 1e9;
+
+  ExtractResult extracted = [&] {
+    const SparseField field = timer.run("field", [&] {
+      return distance_field(grid, lattice, band, checked_band_blocks(grid, lattice, band, max_bytes, p));
+    });
+    stats.field_blocks = field.block_count();
+    return timer.run("extract", [&] { return extract_surface(field, r_outer, p.extract); });
+  }();
+  stats.dropped_triangles = extracted.dropped_triangles;
+  TriangleMesh& mesh = result.mesh;
+  mesh = std::move(extracted.mesh);
+  if (!p.keep_voids)
+    stats.removed_voids = timer.run("voids", [&] { return remove_small_voids(mesh, 8 * d * d * d); });
+
+  timer.run("smooth", [&] {
+    SmoothOptions o;
+    o.steps_a = p.steps_a;
+    o.steps_b = p.steps_b;
+    o.steps_free = p.steps_free;
+    o.relax_a = float(p.relax);
+    o.relax_b = float(p.relax_b);
+    o.solver = p.solver;
+    o.rebuild_b = p.rebuild_b;
+    const ShellConstraint constraint{&grid, r_inner, r_outer};
+    smooth_surface(mesh.vertices, mesh.triangles, &constraint, o,
+                   [&](double f) { if (progress) progress("smooth", f); });
+  });
+
+  if (p.erode > 0)
+    stats.flipped_triangles = timer.run("erode", [&] { return erode(mesh.vertices, mesh.triangles, float(p.erode)); });
+
+  if (!p.transfer.empty())
+    timer.run("transfer", [&] {
+      for (const std::string& name : p.transfer)
+        mesh.attributes.push_back(
+            transfer_attribute(*particles.find(name), grid, mesh.vertices, float(p.transfer_radius)));
+    });
+
+  timer.run("normals", [&] { mesh.normals = vertex_normals(mesh.vertices, mesh.triangles); });
+
+  stats.vertices = mesh.vertices.size();
+  stats.triangles = mesh.triangles.size();
+  stats.peak_memory_bytes = peak_rss_bytes();
+  return result;
+}
+
+std::string stats_to_json(const Result& result) {
+  const Stats& s = result.stats;
+  const Params& p = result.params;
+  nlohmann::ordered_json j;
+  j["meniscus"] = version();
+  j["particles"] = s.particles;
+  j["vertices"] = s.vertices;
+  j["triangles"] = s.triangles;
+  j["field_blocks"] = s.field_blocks;
+  j["dropped_triangles"] = s.dropped_triangles;
+  j["removed_voids"] = s.removed_voids;
+  j["flipped_triangles"] = s.flipped_triangles;
+  j["threads"] = s.threads;
+  j["peak_memory_bytes"] = s.peak_memory_bytes;
+  j["total_seconds"] = s.total_seconds();
+  nlohmann::ordered_json stages = nlohmann::ordered_json::object();
+  for (const StageTime& t : s.stages) stages[t.name] = t.seconds;
+  j["stages"] = stages;
+  nlohmann::ordered_json q;
+  q["spacing"] = p.spacing;
+  q["spacing_estimated"] = s.spacing_estimated;
+  q["voxel_size"] = p.voxel_size;
+  q["r_inner"] = p.r_inner;
+  q["r_outer"] = p.r_outer;
+  q["extract"] = to_string(p.extract);
+  q["keep_voids"] = p.keep_voids;
+  q["steps_a"] = p.steps_a;
+  q["steps_b"] = p.steps_b;
+  q["steps_free"] = p.steps_free;
+  q["relax"] = p.relax;
+  q["relax_b"] = p.relax_b;
+  q["solver"] = to_string(p.solver);
+  q["rebuild_b"] = p.rebuild_b;
+  q["erode"] = p.erode;
+  q["transfer"] = p.transfer;
+  q["transfer_radius"] = p.transfer_radius;
+  q["threads"] = p.threads;
+  q["max_memory_gb"] = p.max_memory_gb;
+  j["parameters"] = q;
+  j["warnings"] = s.warnings;
+  return j.dump(2);
+}
+
+}  // namespace meniscus

@@ -1,0 +1,135 @@
+// End-to-end tests of the meniscus command line: the surface job, its stats, and refusals.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "meniscus/io.hpp"
+#include "meniscus/quality.hpp"
+#include "support/test_support.hpp"
+
+namespace meniscus {
+namespace {
+
+using test::cli;
+using test::run_command;
+using test::TempDir;
+
+std::string sample() { return test::data_file("ply/dam_break_frame_9_6859_particles.ply"); }
+
+std::size_t files_in(const std::filesystem::path& dir) {
+  return std::size_t(std::distance(std::filesystem::directory_iterator(dir), std::filesystem::directory_iterator{}));
+}
+
+TEST(Cli, SurfacesARealFrameWithStatsAndPreview) {
+  TempDir tmp;
+  const std::string mesh = tmp.file("out/mesh.ply"), stats = tmp.file("stats.json"), png = tmp.file("view.png");
+  std::string out;
+  const int rc = run_command(cli() + " surface " + sample() + " -o " + mesh + " --stats " + stats + " --preview " +
+                                 png + " --transfer velocity",
+                             &out);
+  ASSERT_EQ(rc, 0) << out;
+  EXPECT_NE(out.find("estimated particle spacing"), std::string::npos) << out;
+  EXPECT_NE(out.find("6859 particles"), std::string::npos) << out;
+
+  const TriangleMesh m = read_mesh(mesh);
+  EXPECT_TRUE(analyze_topology(m).watertight());
+  ASSERT_EQ(m.normals.size(), m.vertices.size());
+  ASSERT_NE(m.find("velocity"), nullptr);
+
+  std::ifstream in(stats);
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["particles"], 6859);
+  EXPECT_EQ(j["vertices"], m.vertices.size());
+  EXPECT_EQ(j["triangles"], m.triangles.size());
+  for (const char* stage : {"read", "grid", "field", "extract", "smooth", "transfer", "normals", "write", "preview"})
+    EXPECT_TRUE(j["stages"].contains(stage)) << stage;
+  EXPECT_GT(j["peak_memory_bytes"].get<double>(), 1e6);
+  const auto& p = j["parameters"];
+  for (const char* key : {"spacing", "voxel_size", "r_inner", "r_outer", "steps_a", "steps_b", "steps_free", "relax",
+                          "extract", "erode", "transfer", "transfer_radius", "threads"})
+    EXPECT_TRUE(p.contains(key)) << key;
+  EXPECT_TRUE(p["spacing_estimated"].get<bool>());
+  EXPECT_DOUBLE_EQ(p["voxel_size"].get<double>(), p["spacing"].get<double>() / 2);
+
+  std::ifstream png_in(png, std::ios::binary);
+  char sig[8] = {};
+  png_in.read(sig, 8);
+  EXPECT_EQ(std::string(sig + 1, 3), "PNG");
+}
+
+TEST(Cli, ParametersGivenAreUsed) {
+  TempDir tmp;
+  std::string out;
+  ASSERT_EQ(run_command(cli() + " surface " + sample() + " -o " + tmp.file("m.ply") + " --spacing 0.05 --voxel-size 0.02"
+                            " --r-outer 0.06 --r-inner 0.03 --steps-a 3 --steps-b 4 --steps-free 1 --relax 0.4"
+                            " --extract cubes --threads 1 --quiet --stats " + tmp.file("s.json"),
+                        &out),
+            0)
+      << out;
+  EXPECT_EQ(out, "");  // --quiet
+  std::ifstream in(tmp.file("s.json"));
+  const auto p = nlohmann::json::parse(in)["parameters"];
+  EXPECT_DOUBLE_EQ(p["spacing"].get<double>(), 0.05);
+  EXPECT_DOUBLE_EQ(p["voxel_size"].get<double>(), 0.02);
+  EXPECT_DOUBLE_EQ(p["r_outer"].get<double>(), 0.06);
+  EXPECT_DOUBLE_EQ(p["r_inner"].get<double>(), 0.03);
+  EXPECT_EQ(p["steps_a"], 3);
+  EXPECT_EQ(p["steps_b"], 4);
+  EXPECT_EQ(p["steps_free"], 1);
+  EXPECT_EQ(p["extract"], "cubes");
+  EXPECT_EQ(p["threads"], 1);
+}
+
+struct Refusal {
+  std::string args, message;
+};
+
+TEST(Cli, RefusesInvalidOptionsWithAClearMessageAndNoOutput) {
+  const std::vector<Refusal> cases = {
+      {"--r-outer -1", "--r-outer"},
+      {"--r-inner 0.1 --r-outer 0.05", "r_inner"},
+      {"--relax 1.5", "relax"},
+      {"--extract spheres", "--extract"},
+      {"--voxel-size 0", "--voxel-size"},
+      {"--bogus-option 3", "bogus-option"},
+      {"--steps-a many", "--steps-a"},
+      {"--transfer nothing_like_this", "nothing_like_this"},
+      {"--spacing 0.05 --voxel-size 0.00001", "voxel size"},
+  };
+  for (const Refusal& c : cases) {
+    TempDir tmp;
+    std::string out;
+    const int rc = run_command(cli() + " surface " + sample() + " -o " + tmp.file("m.ply") + " " + c.args, &out);
+    EXPECT_NE(rc, 0) << c.args;
+    EXPECT_NE(out.find(c.message), std::string::npos) << c.args << " → " << out;
+    EXPECT_EQ(files_in(tmp.path), 0u) << c.args << ": left a file behind";
+  }
+}
+
+TEST(Cli, MissingOrBrokenInputFailsCleanly) {
+  TempDir tmp;
+  std::string out;
+  EXPECT_NE(run_command(cli() + " surface " + tmp.file("nope.ply") + " -o " + tmp.file("m.ply"), &out), 0);
+  EXPECT_NE(out.find("nope.ply"), std::string::npos) << out;
+  {
+    std::ofstream f(tmp.file("bad.ply"));
+    f << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
+         "0 0 0\n1 1\n";
+  }
+  EXPECT_NE(run_command(cli() + " surface " + tmp.file("bad.ply") + " -o " + tmp.file("m.ply"), &out), 0);
+  EXPECT_NE(out.find("bad.ply"), std::string::npos) << out;
+  EXPECT_NE(out.find("line"), std::string::npos) << out;
+  EXPECT_FALSE(std::filesystem::exists(tmp.file("m.ply")));
+}
+
+TEST(Cli, InfoListsVersionBackendsAndFormats) {
+  std::string out;
+  ASSERT_EQ(run_command(cli() + " info", &out), 0);
+  for (const char* s : {"meniscus", "cpu", "threads", ".ply", ".xyz", "tiles"})
+    EXPECT_NE(out.find(s), std::string::npos) << s << " in " << out;
+}
+
+}  // namespace
+}  // namespace meniscus

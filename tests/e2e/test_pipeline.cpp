@@ -1,0 +1,201 @@
+// End-to-end tests of reconstruct(): watertightness, valence, constraints, flatness, spheres,
+// attribute transfer — measured on synthetic particle sets with known answers.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "meniscus/errors.hpp"
+#include "meniscus/quality.hpp"
+#include "meniscus/reconstruct.hpp"
+#include "support/test_support.hpp"
+
+namespace meniscus {
+namespace {
+
+using test::lattice_ball;
+using test::lattice_block;
+
+// Vertices of the top face of a block of particles nx × ny × nz with spacing d at the origin:
+// facing up and at least `margin` inside the block's vertical edges.
+std::vector<Vec3f> top_face(const TriangleMesh& m, int nx, int ny, int nz, float d, float margin) {
+  std::vector<Vec3f> out;
+  const float top = float(nz - 1) * d;
+  for (std::size_t i = 0; i < m.vertices.size(); ++i) {
+    const Vec3f v = m.vertices[i];
+    if (v.z < top + 0.25f * d) continue;
+    if (v.x < margin || v.y < margin || v.x > float(nx - 1) * d - margin || v.y > float(ny - 1) * d - margin) continue;
+    out.push_back(v);
+  }
+  return out;
+}
+
+Params block_params(float d) {
+  Params p;
+  p.spacing = d;
+  return p;
+}
+
+TEST(Pipeline, LatticeBlockTopFaceIsFlat) {
+  const float d = 0.1f;
+  const int nx = 24, ny = 24, nz = 8;
+  const Result r = reconstruct(lattice_block(nx, ny, nz, d), block_params(d));
+  const TopologyReport t = analyze_topology(r.mesh);
+  EXPECT_TRUE(t.watertight());
+  const auto face = top_face(r.mesh, nx, ny, nz, d, 4 * d);
+  ASSERT_GT(face.size(), 500u);
+  const PlaneFit fit = fit_plane(face);
+  EXPECT_GT(std::abs(fit.normal.z), 0.999f);
+  EXPECT_LT(fit.rms / d, 0.005) << "top-face RMS " << fit.rms / d << " d";
+  // The face lies between r_inner and r_outer above the top layer.
+  EXPECT_GT(fit.centroid.z, float(nz - 1) * d + 0.5f * d);
+  EXPECT_LT(fit.centroid.z, float(nz - 1) * d + 1.0f * d);
+}
+
+TEST(Pipeline, JitteredBlockTopFaceIsFlat) {
+  const float d = 0.1f;
+  const int nx = 24, ny = 24, nz = 8;
+  const Result r = reconstruct(lattice_block(nx, ny, nz, d, 0.1f, 17), block_params(d));
+  EXPECT_TRUE(analyze_topology(r.mesh).watertight());
+  const auto face = top_face(r.mesh, nx, ny, nz, d, 4 * d);
+  ASSERT_GT(face.size(), 500u);
+  const PlaneFit fit = fit_plane(face);
+  EXPECT_LT(fit.rms / d, 0.03) << "top-face RMS " << fit.rms / d << " d (OpenVDB + 4 mean-curvature passes: 0.045 d)";
+}
+
+TEST(Pipeline, SphereIsGenusZeroWithTheExpectedRadius) {
+  const float d = 0.1f, R = 1.0f;
+  const Result r = reconstruct(test::shell_ball(R, d), block_params(d));
+  const TopologyReport t = analyze_topology(r.mesh);
+  EXPECT_TRUE(t.watertight());
+  EXPECT_EQ(t.components, 1u);
+  EXPECT_EQ(t.euler, 2);
+  double mean = 0, lo = INFINITY, hi = 0;
+  for (const Vec3f& v : r.mesh.vertices) {
+    const double l = length(v);
+    mean += l;
+    lo = std::min(lo, l);
+    hi = std::max(hi, l);
+  }
+  mean /= double(r.mesh.vertices.size());
+  EXPECT_GE(mean, R + r.params.r_inner) << "mean radius " << mean;
+  EXPECT_LE(mean, R + r.params.r_outer) << "mean radius " << mean;
+  EXPECT_LE(hi, R + r.params.r_outer * (1 + 1e-5));
+  EXPECT_GT(signed_volume(r.mesh), 0);
+}
+
+TEST(Pipeline, ConstrainedScheduleLeavesEveryVertexInsideTheShell) {
+  const float d = 0.1f;
+  Params p = block_params(d);
+  p.steps_free = 0;
+  const ParticleSet ps = lattice_block(16, 12, 6, d, 0.2f, 5);
+  const Result r = reconstruct(ps, p);
+  const ConstraintReport c = constraint_residual(r.mesh.vertices, ps.positions, r.params.r_inner, r.params.r_outer);
+  EXPECT_LE(c.max_violation, 1e-5 * r.params.r_outer)
+      << "distances " << c.min_distance << " .. " << c.max_distance;
+}
+
+TEST(Pipeline, TilesGiveValenceAtLeastFiveAndCubesDoNot) {
+  const float d = 0.1f;
+  const ParticleSet ps = lattice_block(12, 12, 6, d, 0.1f, 3);
+  Params p = block_params(d);
+  const Result tiles = reconstruct(ps, p);
+  p.extract = Extractor::cubes;
+  const Result cubes = reconstruct(ps, p);
+  p.extract = Extractor::tetrahedra;
+  const Result tets = reconstruct(ps, p);
+  const ValenceReport vt = valence(tiles.mesh), vc = valence(cubes.mesh), vq = valence(tets.mesh);
+  EXPECT_GE(vt.min, 5);
+  EXPECT_EQ(vt.below_5, 0u);
+  const double share_cubes = double(vc.below_5) / double(cubes.mesh.vertices.size());
+  EXPECT_GT(share_cubes, 0.05) << "marching cubes share of valence < 5: " << share_cubes;
+  EXPECT_LT(vc.min, 5);
+  EXPECT_LT(vq.min, 5);
+  for (const Result* r : {&tiles, &cubes, &tets}) {
+    const TopologyReport t = analyze_topology(r->mesh);
+    EXPECT_TRUE(t.watertight()) << to_string(r->params.extract);
+    EXPECT_EQ(t.degenerate_triangles, 0u) << to_string(r->params.extract);
+  }
+}
+
+TEST(Pipeline, AttributeTransferReproducesASmoothColour) {
+  const float d = 0.1f;
+  ParticleSet ps = lattice_block(40, 40, 20, d, 0.1f, 8);
+  Vec3f lo = ps.positions[0], hi = lo;
+  for (const Vec3f& p : ps.positions) lo = min(lo, p), hi = max(hi, p);
+  const Vec3f ext = hi - lo;
+  auto normalize = [&](Vec3f p) { return Vec3f{(p.x - lo.x) / ext.x, (p.y - lo.y) / ext.y, (p.z - lo.z) / ext.z}; };
+  Attribute color{"color", 3, false, {}};
+  for (const Vec3f& p : ps.positions) {
+    const Vec3f c = normalize(p);
+    color.values.insert(color.values.end(), {c.x, c.y, c.z});
+  }
+  ps.attributes.push_back(color);
+  Params p = block_params(d);
+  p.transfer = {"color"};
+  p.steps_a = 2;
+  p.steps_b = 2;
+  p.steps_free = 0;
+  const Result r = reconstruct(ps, p);
+  const Attribute* out = r.mesh.find("color");
+  ASSERT_NE(out, nullptr);
+  ASSERT_EQ(out->size(), r.mesh.vertices.size());
+  double error = 0;
+  for (std::size_t i = 0; i < r.mesh.vertices.size(); ++i) {
+    const Vec3f want = normalize(r.mesh.vertices[i]);
+    const Vec3f got{out->values[i * 3], out->values[i * 3 + 1], out->values[i * 3 + 2]};
+    error += length(got - want);
+  }
+  error /= double(r.mesh.vertices.size());
+  EXPECT_LT(error, 0.05) << "mean colour error " << error;
+}
+
+TEST(Pipeline, RefusesBadParametersAndAbsurdSizes) {
+  const ParticleSet ps = lattice_block(4, 4, 4, 0.1f);
+  Params p;
+  p.r_inner = 0.2;
+  p.r_outer = 0.1;
+  EXPECT_THROW(reconstruct(ps, p), InvalidParameter);
+  p = Params{};
+  p.relax = 0;
+  EXPECT_THROW(reconstruct(ps, p), InvalidParameter);
+  p = Params{};
+  p.transfer = {"nope"};
+  EXPECT_THROW(reconstruct(ps, p), InvalidParameter);
+  p = Params{};
+  p.spacing = 0.1;
+  p.voxel_size = 1e-5;  // ~10^12 samples
+  EXPECT_THROW(reconstruct(ps, p), ResourceError);
+}
+
+TEST(Pipeline, EstimatesTheSpacingOfALattice) {
+  const ParticleSet ps = lattice_block(10, 10, 10, 0.05f, 0.0f);
+  EXPECT_NEAR(estimate_spacing(ps), 0.05, 1e-6);
+  Params p;
+  p.steps_a = p.steps_b = p.steps_free = 0;
+  const Result r = reconstruct(ps, p);
+  EXPECT_NEAR(r.params.spacing, 0.05, 1e-6);
+  EXPECT_NEAR(r.params.voxel_size, 0.025, 1e-6);
+  EXPECT_NEAR(r.params.r_outer, 0.05, 1e-6);
+  EXPECT_NEAR(r.params.r_inner, 0.025, 1e-6);
+  EXPECT_TRUE(r.stats.spacing_estimated);
+  // Every stage is timed.
+  std::vector<std::string> names;
+  for (const auto& s : r.stats.stages) names.push_back(s.name);
+  for (const char* stage : {"grid", "field", "extract", "smooth", "normals"})
+    EXPECT_NE(std::find(names.begin(), names.end(), stage), names.end()) << stage;
+}
+
+TEST(Pipeline, ResultDoesNotDependOnTheThreadCount) {
+  const ParticleSet ps = lattice_block(10, 8, 6, 0.1f, 0.15f, 4);
+  Params p = block_params(0.1f);
+  p.threads = 1;
+  const Result a = reconstruct(ps, p);
+  p.threads = 2;
+  const Result b = reconstruct(ps, p);
+  ASSERT_EQ(a.mesh.triangles, b.mesh.triangles);
+  ASSERT_EQ(a.mesh.vertices.size(), b.mesh.vertices.size());
+  for (std::size_t i = 0; i < a.mesh.vertices.size(); ++i) ASSERT_EQ(a.mesh.vertices[i], b.mesh.vertices[i]);
+}
+
+}  // namespace
+}  // namespace meniscus

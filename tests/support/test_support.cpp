@@ -1,0 +1,80 @@
+#include "support/test_support.hpp"
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <sys/wait.h>
+
+namespace meniscus::test {
+
+ParticleSet lattice_block(int nx, int ny, int nz, float d, float jitter, uint32_t seed, Vec3f origin) {
+  ParticleSet ps;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-jitter * d, jitter * d);
+  ps.positions.reserve(std::size_t(nx) * ny * nz);
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        Vec3f p{origin.x + float(i) * d, origin.y + float(j) * d, origin.z + float(k) * d};
+        if (jitter > 0) p += Vec3f{u(rng), u(rng), u(rng)};
+        ps.positions.push_back(p);
+      }
+  return ps;
+}
+
+ParticleSet lattice_ball(float R, float d, Vec3f center) {
+  ParticleSet ps;
+  const int n = int(R / d) + 1;
+  for (int k = -n; k <= n; ++k)
+    for (int j = -n; j <= n; ++j)
+      for (int i = -n; i <= n; ++i) {
+        const Vec3f q{float(i) * d, float(j) * d, float(k) * d};
+        if (length(q) <= R) ps.positions.push_back(center + q);
+      }
+  return ps;
+}
+
+ParticleSet shell_ball(float R, float d, Vec3f center) {
+  ParticleSet ps;
+  ps.positions.push_back(center);
+  const double golden = 3.14159265358979323846 * (3.0 - std::sqrt(5.0));
+  for (float r = R; r > 0.5f * d; r -= d) {
+    // Hexagonal packing density: one particle per (√3/2)·d² of area.
+    const int n = std::max(4, int(std::lround(4.0 * 3.14159265358979323846 * r * r / (0.8660254 * d * d))));
+    for (int i = 0; i < n; ++i) {
+      const double z = 1.0 - 2.0 * (i + 0.5) / n, rho = std::sqrt(1.0 - z * z), phi = golden * i;
+      ps.positions.push_back(center + Vec3f{float(rho * std::cos(phi)), float(rho * std::sin(phi)), float(z)} * r);
+    }
+  }
+  return ps;
+}
+
+TempDir::TempDir() {
+  static std::mt19937_64 rng{std::random_device{}()};
+  for (;;) {
+    path = std::filesystem::temp_directory_path() / ("meniscus-test-" + std::to_string(rng()));
+    if (std::filesystem::create_directory(path)) break;
+  }
+}
+TempDir::~TempDir() {
+  std::error_code ec;
+  std::filesystem::remove_all(path, ec);
+}
+
+int run_command(const std::string& command, std::string* output) {
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
+  if (!pipe) return -1;
+  std::array<char, 4096> buffer;
+  std::string text;
+  std::size_t n;
+  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) text.append(buffer.data(), n);
+  const int status = pclose(pipe);
+  if (output) *output = text;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string data_file(const std::string& name) { return std::string(MENISCUS_TEST_DATA) + "/" + name; }
+std::string cli() { return MENISCUS_CLI; }
+
+}  // namespace meniscus::test

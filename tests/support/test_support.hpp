@@ -1,0 +1,44 @@
+// meniscus tests — synthetic particle sets and small helpers shared by the tests.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "meniscus/mesh.hpp"
+#include "meniscus/particles.hpp"
+
+namespace meniscus::test {
+
+/// nx × ny × nz particles on a cubic lattice of spacing d starting at `origin`; each coordinate
+/// displaced uniformly in [-jitter·d, +jitter·d] (deterministic for a given seed).
+ParticleSet lattice_block(int nx, int ny, int nz, float d, float jitter = 0, uint32_t seed = 1,
+                          Vec3f origin = {0, 0, 0});
+
+/// Particles of a lattice of spacing d that lie inside a ball of radius R around `center`.
+ParticleSet lattice_ball(float R, float d, Vec3f center = {0, 0, 0});
+
+/// A ball of concentric spherical shells of particles, the outermost at exactly radius R, each
+/// shell a Fibonacci lattice with neighbour distance ≈ d, shells d apart.
+ParticleSet shell_ball(float R, float d, Vec3f center = {0, 0, 0});
+
+/// A fresh empty directory under the system temp dir, removed by the destructor.
+struct TempDir {
+  TempDir();
+  ~TempDir();
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  std::filesystem::path path;
+  std::string file(const std::string& name) const { return (path / name).string(); }
+};
+
+/// Runs a shell command, returns its exit status; stdout+stderr are captured into `output`.
+int run_command(const std::string& command, std::string* output = nullptr);
+
+/// Path of a bundled test data file (tests/data/NAME).
+std::string data_file(const std::string& name);
+/// Path of the meniscus CLI built with the tests.
+std::string cli();
+
+}  // namespace meniscus::test

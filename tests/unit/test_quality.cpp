@@ -1,0 +1,110 @@
+// Tests of the mesh quality metrics on meshes built by hand.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "meniscus/quality.hpp"
+
+namespace meniscus {
+namespace {
+
+// Unit cube, 12 triangles, outward facing.
+TriangleMesh cube() {
+  TriangleMesh m;
+  for (int i = 0; i < 8; ++i) m.vertices.push_back({float(i & 1), float((i >> 1) & 1), float((i >> 2) & 1)});
+  m.triangles = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                 {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  return m;
+}
+
+TEST(Quality, ClosedCubeIsWatertightGenusZero) {
+  const TriangleMesh m = cube();
+  const TopologyReport t = analyze_topology(m);
+  EXPECT_TRUE(t.watertight());
+  EXPECT_EQ(t.edges, 18u);
+  EXPECT_EQ(t.euler, 2);
+  EXPECT_EQ(t.components, 1u);
+  EXPECT_EQ(t.degenerate_triangles, 0u);
+  EXPECT_NEAR(signed_volume(m), 1.0, 1e-6);
+  const ValenceReport v = valence(m);
+  EXPECT_EQ(v.min, 3);  // corners 0 and 7 get no face diagonal
+  EXPECT_EQ(v.max, 5);
+  EXPECT_EQ(v.below_5, 2u);
+}
+
+TEST(Quality, DetectsHolesFlipsAndNonManifoldEdges) {
+  TriangleMesh open = cube();
+  open.triangles.pop_back();
+  TopologyReport t = analyze_topology(open);
+  EXPECT_EQ(t.boundary_edges, 3u);
+  EXPECT_FALSE(t.closed());
+
+  TriangleMesh flipped = cube();
+  std::swap(flipped.triangles[0][1], flipped.triangles[0][2]);
+  t = analyze_topology(flipped);
+  EXPECT_EQ(t.misoriented_edges, 3u);
+  EXPECT_FALSE(t.oriented());
+
+  TriangleMesh fin = cube();
+  fin.vertices.push_back({0.5f, 0.5f, 2});
+  fin.triangles.push_back({0, 1, 8});  // a third triangle on edge (0,1)
+  t = analyze_topology(fin);
+  EXPECT_EQ(t.nonmanifold_edges, 1u);
+
+  // Two cubes sharing only vertex 7 ↔ a bow-tie vertex.
+  TriangleMesh two = cube();
+  const TriangleMesh c2 = cube();
+  for (const Vec3f& v : c2.vertices) two.vertices.push_back(v + Vec3f{1, 1, 1});
+  for (Triangle tr : c2.triangles) {
+    for (auto& i : tr) i = i == 0 ? 7 : i + 8;
+    two.triangles.push_back(tr);
+  }
+  t = analyze_topology(two);
+  EXPECT_EQ(t.nonmanifold_vertices, 1u);
+  EXPECT_EQ(t.components, 2u);
+  EXPECT_EQ(t.boundary_edges, 0u);
+}
+
+TEST(Quality, DegenerateTrianglesAreCounted) {
+  TriangleMesh m = cube();
+  m.triangles.push_back({0, 0, 1});
+  m.vertices.push_back({2, 0, 0});
+  m.triangles.push_back({0, 1, 8});  // collinear: zero area
+  EXPECT_EQ(analyze_topology(m).degenerate_triangles, 2u);
+}
+
+TEST(Quality, PlaneFitRecoversATiltedPlane) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-1, 1);
+  std::normal_distribution<float> noise(0, 0.01f);
+  const Vec3f n = normalized(Vec3f{0.2f, -0.3f, 1.0f});
+  const Vec3f e1 = normalized(cross(n, Vec3f{1, 0, 0})), e2 = cross(n, e1);
+  std::vector<Vec3f> pts;
+  for (int i = 0; i < 20000; ++i) pts.push_back(Vec3f{5, 1, 2} + e1 * u(rng) + e2 * u(rng) + n * noise(rng));
+  const PlaneFit fit = fit_plane(pts);
+  EXPECT_NEAR(std::abs(dot(fit.normal, n)), 1.0f, 1e-4f);
+  EXPECT_NEAR(fit.rms, 0.01, 0.0005);
+  EXPECT_NEAR(fit.centroid.x, 5.0f, 0.02f);
+}
+
+TEST(Quality, ConstraintResidualMatchesBruteForce) {
+  const std::vector<Vec3f> particles{{0, 0, 0}, {3, 0, 0}};
+  const std::vector<Vec3f> x{{0.7f, 0, 0}, {0.2f, 0, 0}, {4.5f, 0, 0}};
+  const ConstraintReport r = constraint_residual(x, particles, 0.5, 1.0);
+  EXPECT_NEAR(r.min_distance, 0.2, 1e-6);
+  EXPECT_NEAR(r.max_distance, 1.5, 1e-6);
+  EXPECT_NEAR(r.max_violation, 0.5, 1e-6);
+}
+
+TEST(Quality, AnglesOfARightTriangle) {
+  TriangleMesh m;
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  m.triangles = {{0, 1, 2}};
+  const AngleReport a = triangle_angles(m);
+  EXPECT_NEAR(a.min_degrees, 45, 1e-4);
+  EXPECT_NEAR(a.max_degrees, 90, 1e-4);
+  EXPECT_EQ(a.share_below_10, 0);
+}
+
+}  // namespace
+}  // namespace meniscus

@@ -1,0 +1,10 @@
+#!/usr/bin/env bash
+# Installs the Debian packages meniscus needs to build and test (run as root).
+set -euo pipefail
+export DEBIAN_FRONTEND=noninteractive
+apt-get update -qq
+apt-get install -y -qq --no-install-recommends \
+  build-essential cmake ninja-build pkg-config \
+  libtbb-dev libfmt-dev nlohmann-json3-dev libcli11-dev zlib1g-dev libstb-dev \
+  libgtest-dev libgmock-dev libbenchmark-dev \
+  python3 python3-numpy >/dev/null

@@ -1,4 +1,4 @@
-// meniscus — block-parallel two-pass marching (Williams 2008 §4; Edespong 2010 §3.3).
+// meniscus — block-parallel two-pass marching (Williams 2008; Edespong 2010 §4.3).
 #include "extract/block_marching.hpp"
 
 #include <fmt/format.h>

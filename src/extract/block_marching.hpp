@@ -1,5 +1,5 @@
-// meniscus — the block-parallel two-pass driver shared by the extractors (Williams 2008 §4;
-// Edespong 2010 §3.3: count the triangles of each block, prefix sum, then write): each block
+// meniscus — the block-parallel two-pass driver shared by the extractors (Williams 2008;
+// Edespong 2010 §4.3: count the triangles of each block, prefix sum, then write): each block
 // first gathers the inside masks of its cells plus a one-cell halo from up to 26 neighbour blocks,
 // so the per-cell kernels (marching_impl.hpp) never touch the field's hash index.
 #pragma once
@@ -18,9 +18,9 @@ namespace meniscus {
 /// sample s is inside (φ < iso). Samples of unallocated blocks read as background, i.e. outside.
 struct PaddedMasks {
   static constexpr int kMaxPaddedCells = 10 * 10 * 10;  // (8 + 2)³ on the cubic lattice
-  int cells = 0;   ///< cells per block edge
-  int padded = 0;  ///< cells + 2
-  Vec3i origin;    ///< first cell of the block
+  int cells = 0;                                        ///< cells per block edge
+  int padded = 0;                                       ///< cells + 2
+  Vec3i origin;                                         ///< first cell of the block
   std::array<uint8_t, kMaxPaddedCells> mask;
 
   /// Mask of local cell (x, y, z), each coordinate in [-1, cells].

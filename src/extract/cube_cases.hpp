@@ -55,8 +55,8 @@ inline constexpr auto kCubeEdgeKeyDeltas = build_cube_edge_key_deltas();
 inline constexpr int kCubeMaxTriangles = 5;
 
 struct CubeCase {
-  uint8_t count;                           ///< triangles
-  uint8_t edges[kCubeMaxTriangles][3];     ///< cube edge (0..11) of each corner
+  uint8_t count;                        ///< triangles
+  uint8_t edges[kCubeMaxTriangles][3];  ///< cube edge (0..11) of each corner
 };
 
 struct CubeCaseTable {
@@ -80,15 +80,14 @@ constexpr int cube_edge_of(int c0, int c1) {
   return -1;
 }
 
-/// Bit f set if cube edge e lies on face f.
+/// Bit f set if cube edge e lies on face f: the faces of the two other axes on the side of the
+/// edge's corners (closed form: the generator calls this often enough to hit compile-time step
+/// limits with a search).
 constexpr int cube_edge_faces(int e) {
+  const int a = cube_edge_axis(e), c = kCubeEdgeCorners[e][0];
   int mask = 0;
-  for (int f = 0; f < 6; ++f) {
-    int q[4] = {};
-    cube_face_corners(f, q);
-    for (int k = 0; k < 4; ++k)
-      if (cube_edge_of(q[k], q[(k + 1) % 4]) == e) mask |= 1 << f;
-  }
+  for (int b = 0; b < 3; ++b)
+    if (b != a) mask |= 1 << (2 * b + cube_corner_coord(c, b));
   return mask;
 }
 

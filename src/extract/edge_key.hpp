@@ -34,15 +34,12 @@ MENISCUS_HD constexpr Vec3i edge_key_cell(uint64_t key) {
   constexpr int64_t kOffset = int64_t(1) << (kEdgeKeyAxisBits - 1);
   constexpr uint64_t kMask = (uint64_t(1) << kEdgeKeyAxisBits) - 1;
   const uint64_t packed = key >> kEdgeKeyTypeBits;
-  return {int32_t(int64_t(packed & kMask) - kOffset),
-          int32_t(int64_t((packed >> kEdgeKeyAxisBits) & kMask) - kOffset),
+  return {int32_t(int64_t(packed & kMask) - kOffset), int32_t(int64_t((packed >> kEdgeKeyAxisBits) & kMask) - kOffset),
           int32_t(int64_t((packed >> (2 * kEdgeKeyAxisBits)) & kMask) - kOffset)};
 }
 
 /// The type of an edge key.
-MENISCUS_HD constexpr int edge_key_type(uint64_t key) {
-  return int(key & ((uint64_t(1) << kEdgeKeyTypeBits) - 1));
-}
+MENISCUS_HD constexpr int edge_key_type(uint64_t key) { return int(key & ((uint64_t(1) << kEdgeKeyTypeBits) - 1)); }
 
 /// What to add (mod 2^64) to edge_key(cell, 0) to get edge_key(cell + d, type). The packing is
 /// linear in each coordinate as long as every field stays in range, so the inner loops turn a

@@ -15,8 +15,8 @@ ExtractResult extract_surface(const SparseField& field, float iso, Extractor ext
   if (!std::isfinite(iso)) throw InvalidParameter(fmt::format("extract_surface: iso value {} is not finite", iso));
   // Unallocated space must read as outside, otherwise the surface would not close at the band.
   if (!(field.background() > iso))
-    throw InvalidParameter(fmt::format("extract_surface: the field background {} must be > the iso value {}",
-                                       field.background(), iso));
+    throw InvalidParameter(
+        fmt::format("extract_surface: the field background {} must be > the iso value {}", field.background(), iso));
   const bool a15 = field.lattice().kind == SampleLattice::Kind::a15;
   const bool wants_a15 = extractor == Extractor::tiles;
   if (a15 != wants_a15)
@@ -27,9 +27,15 @@ ExtractResult extract_surface(const SparseField& field, float iso, Extractor ext
                                        wants_a15 ? "A15" : "cubic", a15 ? "A15" : "cubic"));
   std::vector<uint64_t> corners;
   switch (extractor) {
-    case Extractor::tiles: corners = march_tiles(field, iso); break;
-    case Extractor::cubes: corners = march_cubes(field, iso); break;
-    case Extractor::tetrahedra: corners = march_tetrahedra(field, iso); break;
+    case Extractor::tiles:
+      corners = march_tiles(field, iso);
+      break;
+    case Extractor::cubes:
+      corners = march_cubes(field, iso);
+      break;
+    case Extractor::tetrahedra:
+      corners = march_tetrahedra(field, iso);
+      break;
   }
   return weld_edge_keys(corners, field, iso);
 }

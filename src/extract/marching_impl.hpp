@@ -51,7 +51,8 @@ MENISCUS_HD inline uint32_t march_tile_cell(const uint8_t* mask, const TileVerte
     const TetCase& tc = kTetCases.cases[c];
     if (out != nullptr) {
       for (int k = 0; k < tc.count; ++k)
-        for (int j = 0; j < 3; ++j) out[3 * (n + k) + j] = cell_key + kA15EdgeTable.tet_edges[t][tc.edges[k][j]].key_delta;
+        for (int j = 0; j < 3; ++j)
+          out[3 * (n + k) + j] = cell_key + kA15EdgeTable.tet_edges[t][tc.edges[k][j]].key_delta;
     }
     n += tc.count;
   }

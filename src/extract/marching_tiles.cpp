@@ -11,7 +11,7 @@ namespace {
 
 // The A15 block is 4³ cells, padded to 6³.
 constexpr int kPadded = 4 + 2;
-constexpr TileVertexLookup kLookup = make_tile_vertex_lookup(kPadded, kPadded * kPadded);
+constexpr TileVertexLookup kLookup = make_tile_vertex_lookup(kPadded, kPadded* kPadded);
 
 uint32_t march_tile_block(const PaddedMasks& masks, uint64_t* out) {
   const int n = masks.cells;

@@ -47,8 +47,10 @@ constexpr TetCaseTable build_tet_cases() {
   for (int c = 0; c < 16; ++c) {
     int in[4] = {}, out[4] = {}, n_in = 0, n_out = 0;
     for (int v = 0; v < 4; ++v) {
-      if ((c >> v) & 1) in[n_in++] = v;
-      else out[n_out++] = v;
+      if ((c >> v) & 1)
+        in[n_in++] = v;
+      else
+        out[n_out++] = v;
     }
     // Direction from the inside vertices to the outside ones (scaled to stay integer).
     int g[3] = {};

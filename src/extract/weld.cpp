@@ -1,4 +1,4 @@
-// meniscus — edge weld by radix sort + unique on lattice-edge keys (Williams 2008 §4).
+// meniscus — edge weld by radix sort + unique on lattice-edge keys (Williams 2008; Edespong 2010 §4.3).
 #include "extract/weld.hpp"
 
 #include <fmt/format.h>
@@ -148,12 +148,15 @@ std::size_t drop_repeated(TriangleMesh& mesh) {
   return dropped;
 }
 
+void check_vertex_count(std::size_t vertices) {
+  if (vertices >= kNotFound)
+    throw ResourceError(
+        fmt::format("extract_surface: {} vertices exceed the 32-bit vertex index of TriangleMesh", vertices));
+}
+
 /// Vertex positions, one per distinct dense key.
 void compute_vertices(const std::vector<uint64_t>& vertex_keys, const DenseEdgeKeys& dense, const SparseField& field,
                       float iso, TriangleMesh& mesh) {
-  if (vertex_keys.size() >= kNotFound)
-    throw ResourceError(fmt::format("extract_surface: {} vertices exceed the 32-bit vertex index of TriangleMesh",
-                                    vertex_keys.size()));
   mesh.vertices.resize(vertex_keys.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertex_keys.size()),
                     [&](const tbb::blocked_range<std::size_t>& r) {
@@ -186,15 +189,16 @@ void weld_packed(std::span<const uint64_t> corner_keys, const DenseEdgeKeys& den
   });
   for (std::size_t c = 0; c < chunks; ++c) first_vertex[c + 1] += first_vertex[c];
 
+  check_vertex_count(first_vertex.back());
   std::vector<uint64_t> vertex_keys(first_vertex.back());
   mesh.triangles.resize(n / 3);
-  uint32_t* corners = mesh.triangles.empty() ? nullptr : mesh.triangles.front().data();
   const uint64_t index_mask = (uint64_t(1) << index_bits) - 1;
   tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
     std::size_t v = first_vertex[c];  // index of the next run head
     for (std::size_t i = c * kChunk, end = std::min(n, i + kChunk); i < end; ++i) {
       if (is_head(i)) vertex_keys[v++] = key_of(packed[i]);
-      corners[packed[i] & index_mask] = uint32_t(v - 1);
+      const std::size_t corner = std::size_t(packed[i] & index_mask);
+      mesh.triangles[corner / 3][corner % 3] = uint32_t(v - 1);
     }
   });
   packed = {};
@@ -214,6 +218,7 @@ void weld_searched(std::span<const uint64_t> corner_keys, const DenseEdgeKeys& d
   radix_sort(sorted, 0, dense.bits);
   const std::vector<uint64_t> vertex_keys = unique_sorted(sorted);
   sorted = {};
+  check_vertex_count(vertex_keys.size());
   compute_vertices(vertex_keys, dense, field, iso, mesh);
 
   const SortedKeyIndex index(vertex_keys);
@@ -232,8 +237,10 @@ ExtractResult weld_edge_keys(std::span<const uint64_t> corner_keys, const Sparse
   ExtractResult result;
   const DenseEdgeKeys dense(corner_keys);
   const int index_bits = corner_keys.size() < 2 ? 1 : int(std::bit_width(corner_keys.size() - 1));
-  if (dense.bits + index_bits <= 64) weld_packed(corner_keys, dense, index_bits, field, iso, result.mesh);
-  else weld_searched(corner_keys, dense, field, iso, result.mesh);
+  if (dense.bits + index_bits <= 64)
+    weld_packed(corner_keys, dense, index_bits, field, iso, result.mesh);
+  else
+    weld_searched(corner_keys, dense, field, iso, result.mesh);
 
   TriangleMesh& mesh = result.mesh;
   const std::size_t repeated = tbb::parallel_reduce(

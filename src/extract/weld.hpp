@@ -1,4 +1,4 @@
-// meniscus — the edge weld (Williams 2008 §4; Edespong 2010 §3.3): triangle corners given as
+// meniscus — the edge weld (Williams 2008; Edespong 2010 §4.3): triangle corners given as
 // lattice-edge keys become an indexed mesh with one vertex per distinct edge, so connectivity is
 // exact (never decided by comparing float positions).
 #pragma once

@@ -1,4 +1,4 @@
-// meniscus tests — the edge weld (Williams 2008 §4) and its parallel LSD radix sort.
+// meniscus tests — the edge weld (Williams 2008; Edespong 2010 §4.3) and its parallel LSD radix sort.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -98,13 +98,16 @@ TEST(ExtractWeld, FarApartComponentsWeldLikeSeparateOnes) {
   ASSERT_EQ(both.mesh.vertices.size(), only_a.mesh.vertices.size() + only_b.mesh.vertices.size());
   ASSERT_EQ(both.mesh.triangles.size(), only_a.mesh.triangles.size() + only_b.mesh.triangles.size());
   const uint32_t shift = uint32_t(only_a.mesh.vertices.size());
-  for (std::size_t v = 0; v < only_a.mesh.vertices.size(); ++v) EXPECT_EQ(both.mesh.vertices[v], only_a.mesh.vertices[v]);
+  for (std::size_t v = 0; v < only_a.mesh.vertices.size(); ++v)
+    EXPECT_EQ(both.mesh.vertices[v], only_a.mesh.vertices[v]);
   for (std::size_t v = 0; v < only_b.mesh.vertices.size(); ++v)
     EXPECT_EQ(both.mesh.vertices[shift + v], only_b.mesh.vertices[v]);
-  for (std::size_t t = 0; t < only_a.mesh.triangles.size(); ++t) EXPECT_EQ(both.mesh.triangles[t], only_a.mesh.triangles[t]);
+  for (std::size_t t = 0; t < only_a.mesh.triangles.size(); ++t)
+    EXPECT_EQ(both.mesh.triangles[t], only_a.mesh.triangles[t]);
   for (std::size_t t = 0; t < only_b.mesh.triangles.size(); ++t) {
     const Triangle& tb = only_b.mesh.triangles[t];
-    EXPECT_EQ(both.mesh.triangles[only_a.mesh.triangles.size() + t], (Triangle{tb[0] + shift, tb[1] + shift, tb[2] + shift}));
+    EXPECT_EQ(both.mesh.triangles[only_a.mesh.triangles.size() + t],
+              (Triangle{tb[0] + shift, tb[1] + shift, tb[2] + shift}));
   }
 }
 

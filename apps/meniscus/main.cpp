@@ -25,7 +25,7 @@ constexpr int kExitRuntime = 1;
 constexpr int kExitUsage = 2;
 
 struct SurfaceArgs {
-  std::string input, output, stats_path, preview_path, extract = "tiles", solver = "gauss-seidel";
+  std::string input, output, stats_path, preview_path, extract = "tiles", solver = "gauss-seidel", up = "z";
   bool quiet = false, drop_invalid = false;
   Params params;
 };
@@ -65,6 +65,8 @@ void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
       ->check(CLI::PositiveNumber);
   cmd.add_option("--stats", a.stats_path, "write counts, stage times and the parameters used as JSON");
   cmd.add_option("--preview", a.preview_path, "also render a shaded preview picture (.png)");
+  cmd.add_option("--up", a.up, "up axis of the preview's camera (SPlisHSPlasH and Houdini scenes are y-up)")
+      ->check(CLI::IsMember({"x", "y", "z"}))->capture_default_str();
   cmd.add_flag("--keep-voids", p.keep_voids, "keep interior voids smaller than (2 d)³ (removed by default)");
   cmd.add_flag("--drop-invalid", a.drop_invalid, "drop particles with NaN/Inf coordinates instead of failing");
   cmd.add_flag("-q,--quiet", a.quiet, "no progress bar and no summary");
@@ -113,7 +115,7 @@ int run_surface(SurfaceArgs& a) {
   Result result = reconstruct(particles, a.params, [&](std::string_view stage, double f) { bar.update(stage, f); });
   bar.finish();
   if (!a.quiet && a.params.spacing == 0)
-    fmt::print(stderr, "estimated particle spacing {:.6g} (median nearest-neighbour distance; set --spacing to override)\n",
+    fmt::print(stderr, "estimated particle spacing {:.6g} (from the particle distances and density; set --spacing to override)\n",
                result.params.spacing);
 
   for (const std::string* out : {&a.output, &a.preview_path, &a.stats_path})
@@ -125,7 +127,9 @@ int run_surface(SurfaceArgs& a) {
       {"write", std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count()});
   if (!a.preview_path.empty()) {
     const auto t2 = std::chrono::steady_clock::now();
-    write_png(a.preview_path, render_mesh(result.mesh));
+    RenderOptions view;
+    view.up = a.up == "x" ? Vec3f{1, 0, 0} : (a.up == "y" ? Vec3f{0, 1, 0} : Vec3f{0, 0, 1});
+    write_png(a.preview_path, render_mesh(result.mesh, view));
     result.stats.stages.push_back(
         {"preview", std::chrono::duration<double>(std::chrono::steady_clock::now() - t2).count()});
   }

@@ -43,7 +43,8 @@ float longest_edge(const SampleLattice& lattice, Extractor e) {
   float longest = 0;
   for (int t = 0; t < kA15EdgeTypeCount; ++t) {
     const LatticeEdge& edge = kA15EdgeTable.types[t];
-    const Vec3f d = lattice.sample_position({edge.dx, edge.dy, edge.dz}, edge.s1) - lattice.sample_position({}, edge.s0);
+    const Vec3f d =
+        lattice.sample_position({edge.dx, edge.dy, edge.dz}, edge.s1) - lattice.sample_position({}, edge.s0);
     longest = std::max(longest, length(d));
   }
   return longest;
@@ -130,8 +131,11 @@ TEST_P(ExtractSurface, SphereIsClosedManifoldOrientedAndAccurate) {
 TEST_P(ExtractSurface, UnionOfBallsHasOneSphereTopologyPerComponent) {
   const Extractor e = GetParam();
   const float h = 0.1f;
-  const std::vector<Ball> balls = {{{0, 0, 0}, 0.8f},       {{1.3f, 0, 0}, 0.6f},       {{0.3f, 0.2f, 1.1f}, 0.5f},
-                                   {{0, 2.2f, 0}, 0.5f},    {{1.5f, 2.0f, 0.3f}, 0.45f}};
+  const std::vector<Ball> balls = {{{0, 0, 0}, 0.8f},
+                                   {{1.3f, 0, 0}, 0.6f},
+                                   {{0.3f, 0.2f, 1.1f}, 0.5f},
+                                   {{0, 2.2f, 0}, 0.5f},
+                                   {{1.5f, 2.0f, 0.3f}, 0.45f}};
   const SampleLattice lattice = lattice_for(e, h);
   const Vec3f lo{-1.0f, -1.0f, -1.0f}, hi{2.2f, 2.9f, 1.8f};
   const SparseField field = make_field(lattice, lo, hi, [&](Vec3f x) { return union_phi(balls, x); });
@@ -161,8 +165,8 @@ TEST_P(ExtractSurface, UnionOfBallsHasOneSphereTopologyPerComponent) {
 TEST_P(ExtractSurface, IsDeterministicAcrossThreadCounts) {
   const Extractor e = GetParam();
   const std::vector<Ball> balls = {{{0, 0, 0}, 0.8f}, {{1.3f, 0, 0}, 0.6f}, {{0, 2.2f, 0}, 0.5f}};
-  const SparseField field = make_field(lattice_for(e, 0.05f), {-1, -1, -1}, {2.2f, 2.9f, 1.1f},
-                                       [&](Vec3f x) { return union_phi(balls, x); });
+  const SparseField field =
+      make_field(lattice_for(e, 0.05f), {-1, -1, -1}, {2.2f, 2.9f, 1.1f}, [&](Vec3f x) { return union_phi(balls, x); });
   ExtractResult serial;
   {
     tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
@@ -203,8 +207,9 @@ TEST_P(ExtractSurface, SamplesAtTheIsoValueGiveNoDegenerateTriangles) {
   }
   EXPECT_GT(min_area, 0) << name(e);
   std::vector<Vec3f> sorted = r.mesh.vertices;
-  std::sort(sorted.begin(), sorted.end(),
-            [](Vec3f a, Vec3f b) { return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z; });
+  std::sort(sorted.begin(), sorted.end(), [](Vec3f a, Vec3f b) {
+    return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
+  });
   EXPECT_EQ(std::adjacent_find(sorted.begin(), sorted.end()), sorted.end()) << name(e) << ": two vertices coincide";
   std::printf("[ measured ] %s with %d samples at the iso value: min triangle area %.3g h^2\n", name(e), snapped,
               min_area / (h * h));
@@ -216,8 +221,8 @@ TEST_P(ExtractSurface, ClosesWhereInsideSamplesTouchTheBandEdge) {
   const Extractor e = GetParam();
   const SampleLattice lattice = lattice_for(e, 1);
   const float extent = float(lattice.block_cells()) * lattice.cell_size;
-  const SparseField field = make_field(lattice, {0, 0, 0}, {extent / 2, extent / 2, extent * 1.5f},
-                                       [](Vec3f) { return -1.0f; }, 1.0f);
+  const SparseField field = make_field(
+      lattice, {0, 0, 0}, {extent / 2, extent / 2, extent * 1.5f}, [](Vec3f) { return -1.0f; }, 1.0f);
   ASSERT_EQ(field.block_count(), 2u);
   const ExtractResult r = extract_surface(field, 0, e);
   const TopologyReport topo = analyze_topology(r.mesh);
@@ -235,13 +240,17 @@ TEST_P(ExtractSurface, EmptyAndAllOutsideFieldsGiveEmptyMeshes) {
   const ExtractResult none = extract_surface(SparseField(lattice, {}, 1.0f), 0, e);
   EXPECT_TRUE(none.mesh.vertices.empty());
   EXPECT_TRUE(none.mesh.triangles.empty());
-  const ExtractResult outside = extract_surface(make_field(lattice, {0, 0, 0}, {9, 9, 9}, [](Vec3f) { return 0.5f; }, 1.0f), 0, e);
+  const ExtractResult outside = extract_surface(make_field(
+                                                    lattice, {0, 0, 0}, {9, 9, 9}, [](Vec3f) { return 0.5f; }, 1.0f),
+                                                0, e);
   EXPECT_TRUE(outside.mesh.triangles.empty());
 }
 
 INSTANTIATE_TEST_SUITE_P(Extractors, ExtractSurface,
                          ::testing::Values(Extractor::tiles, Extractor::cubes, Extractor::tetrahedra),
-                         [](const ::testing::TestParamInfo<Extractor>& param) { return std::string(name(param.param)); });
+                         [](const ::testing::TestParamInfo<Extractor>& param) {
+                           return std::string(name(param.param));
+                         });
 
 // Marching Tiles guarantees valence ≥ 5 (every tiling edge has ≥ 5 tetrahedra); Marching Cubes on
 // the same sphere does not — the reason the tile exists (DESIGN §1.3).
@@ -249,8 +258,8 @@ TEST(ExtractSurfaceValence, TilesHaveValenceAtLeastFiveAndCubesDoNot) {
   const float R = 1, h = 0.1f;
   const Vec3f c{0.13f, -0.07f, 0.21f}, margin{R + 2 * h, R + 2 * h, R + 2 * h};
   auto sphere = [&](Extractor e) {
-    return extract_surface(make_field(lattice_for(e, h), c - margin, c + margin, [&](Vec3f x) { return length(x - c); }),
-                           R, e)
+    return extract_surface(
+               make_field(lattice_for(e, h), c - margin, c + margin, [&](Vec3f x) { return length(x - c); }), R, e)
         .mesh;
   };
   const TriangleMesh tile_mesh = sphere(Extractor::tiles), cube_mesh = sphere(Extractor::cubes),
@@ -264,10 +273,11 @@ TEST(ExtractSurfaceValence, TilesHaveValenceAtLeastFiveAndCubesDoNot) {
                           << " vertices below 5";
   EXPECT_EQ(tiles.below_5, 0u);
   EXPECT_GT(cube_share, 0.05) << "cubes: min valence " << cubes.min << ", share below 5 = " << cube_share;
-  std::printf("[ measured ] valence on the R/h=10 sphere: tiles min %d max %d mean %.2f below-5 %.2f %%; "
-              "cubes min %d mean %.2f below-5 %.2f %%; tetrahedra min %d mean %.2f below-5 %.2f %%\n",
-              tiles.min, tiles.max, tiles.mean, 100.0 * double(tiles.below_5) / double(tile_vertices), cubes.min,
-              cubes.mean, 100 * cube_share, tets.min, tets.mean, 100 * tet_share);
+  std::printf(
+      "[ measured ] valence on the R/h=10 sphere: tiles min %d max %d mean %.2f below-5 %.2f %%; "
+      "cubes min %d mean %.2f below-5 %.2f %%; tetrahedra min %d mean %.2f below-5 %.2f %%\n",
+      tiles.min, tiles.max, tiles.mean, 100.0 * double(tiles.below_5) / double(tile_vertices), cubes.min, cubes.mean,
+      100 * cube_share, tets.min, tets.mean, 100 * tet_share);
 }
 
 TEST(ExtractSurfaceErrors, WrongLatticeOrBackgroundIsRejected) {

@@ -6,8 +6,8 @@
 #include <algorithm>
 #include <array>
 #include <bit>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <numbers>
 #include <random>
@@ -81,8 +81,7 @@ TEST(TileTable, DihedralAnglesAreAcute) {
       const Vec3d axis = sub(p[e[1]], p[e[0]]);
       // Dihedral angle at edge e = angle between the normals of the two faces, seen along e.
       const Vec3d n1 = cross3(axis, sub(p[o[0]], p[e[0]])), n2 = cross3(axis, sub(p[o[1]], p[e[0]]));
-      const double angle =
-          std::acos(dot3(n1, n2) / std::sqrt(dot3(n1, n1) * dot3(n2, n2))) * 180 / std::numbers::pi;
+      const double angle = std::acos(dot3(n1, n2) / std::sqrt(dot3(n1, n1) * dot3(n2, n2))) * 180 / std::numbers::pi;
       lo = std::min(lo, angle);
       hi = std::max(hi, angle);
     }
@@ -252,7 +251,8 @@ TEST(TetrahedronCases, NormalsPointTowardLargerPhiOnAnyPositiveTetrahedron) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-1, 1);
   std::vector<std::array<Vec3d, 4>> shapes;
-  for (const auto& t : kA15Tets) shapes.push_back({a15_position(t[0]), a15_position(t[1]), a15_position(t[2]), a15_position(t[3])});
+  for (const auto& t : kA15Tets)
+    shapes.push_back({a15_position(t[0]), a15_position(t[1]), a15_position(t[2]), a15_position(t[3])});
   while (shapes.size() < 146) {
     std::array<Vec3d, 4> p;
     for (auto& v : p) v = {u(rng), u(rng), u(rng)};
@@ -328,12 +328,27 @@ TEST(MarchingCubesTable, EveryCaseIsAClosedPatchBoundedByTheFaceSegments) {
       if (!directed.count({e.second, e.first})) {
         boundary.insert(e);
       } else {
-        EXPECT_EQ((cube_edge_faces(e.first) & cube_edge_faces(e.second)), 0) << "case " << c << ": a diagonal lies in a face";
+        EXPECT_EQ((cube_edge_faces(e.first) & cube_edge_faces(e.second)), 0)
+            << "case " << c << ": a diagonal lies in a face";
       }
     }
     EXPECT_EQ(boundary, segments) << "case " << c;
   }
   EXPECT_EQ(max_triangles, kCubeMaxTriangles);
+}
+
+TEST(MarchingCubesTable, EdgeFaceMasksMatchTheFaceCycles) {
+  int expected[12] = {};
+  for (int f = 0; f < 6; ++f) {
+    int q[4] = {};
+    cube_face_corners(f, q);
+    for (int k = 0; k < 4; ++k) {
+      const int e = cube_edge_of(q[k], q[(k + 1) % 4]);
+      ASSERT_GE(e, 0) << "face " << f << " corners " << q[k] << ", " << q[(k + 1) % 4] << " are not adjacent";
+      expected[e] |= 1 << f;
+    }
+  }
+  for (int e = 0; e < 12; ++e) EXPECT_EQ(cube_edge_faces(e), expected[e]) << "edge " << e;
 }
 
 TEST(MarchingCubesTable, AmbiguousFacesSeparateTheInsideCorners) {

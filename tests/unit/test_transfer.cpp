@@ -1,0 +1,122 @@
+// Tests of normals, erosion, attribute transfer and void removal against direct computations.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "grid/hash_grid.hpp"
+#include "mesh/voids.hpp"
+#include "meniscus/quality.hpp"
+#include "transfer/attribute_transfer.hpp"
+#include "transfer/normals.hpp"
+
+namespace meniscus {
+namespace {
+
+// Octahedron |x|+|y|+|z| = r, outward triangles.
+TriangleMesh octahedron(float r, Vec3f c = {0, 0, 0}, bool inward = false) {
+  TriangleMesh m;
+  m.vertices = {{r, 0, 0}, {-r, 0, 0}, {0, r, 0}, {0, -r, 0}, {0, 0, r}, {0, 0, -r}};
+  for (auto& v : m.vertices) v += c;
+  m.triangles = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+  if (inward)
+    for (auto& t : m.triangles) std::swap(t[1], t[2]);
+  return m;
+}
+
+TEST(Normals, OctahedronVertexNormalsPointAlongTheAxes) {
+  const TriangleMesh m = octahedron(2.0f);
+  const auto n = vertex_normals(m.vertices, m.triangles);
+  for (std::size_t i = 0; i < 6; ++i) {
+    EXPECT_NEAR(length(n[i]), 1.0f, 1e-6f);
+    EXPECT_NEAR(dot(n[i], normalized(m.vertices[i])), 1.0f, 1e-6f) << i;
+  }
+}
+
+TEST(Normals, AreaWeightingFavoursLargeTriangles) {
+  // A vertex shared by a big triangle in the xy plane and a small one in the xz plane.
+  const std::vector<Vec3f> x{{0, 0, 0}, {10, 0, 0}, {0, 10, 0}, {0, 0, -1}};
+  const std::vector<Triangle> t{{0, 1, 2}, {0, 3, 1}};
+  const auto n = vertex_normals(x, t);
+  // Σ cross products: (0,0,100) + (0,1,0)·... computed directly:
+  const Vec3f expected = normalized(cross(x[1] - x[0], x[2] - x[0]) + cross(x[3] - x[0], x[1] - x[0]));
+  EXPECT_NEAR(dot(n[0], expected), 1.0f, 1e-6f);
+  EXPECT_GT(n[0].z, 0.99f);
+}
+
+TEST(Erosion, MovesVerticesInwardAndCountsFlips) {
+  TriangleMesh m = octahedron(2.0f);
+  const double v0 = signed_volume(m);
+  EXPECT_EQ(erode(m.vertices, m.triangles, 0.5f), 0u);
+  for (const Vec3f& v : m.vertices) EXPECT_NEAR(length(v), 1.5f, 1e-6f);
+  EXPECT_LT(signed_volume(m), v0);
+  // A pyramid eroded by more than its height: the rim vertices move past the apex and every
+  // triangle folds over; a small erosion folds none.
+  const std::vector<Triangle> fan{{0, 1, 2}, {0, 2, 3}, {0, 3, 4}, {0, 4, 1}};
+  const std::vector<Vec3f> pyramid{{0, 0, 1}, {1, 0, 0}, {0, 1, 0}, {-1, 0, 0}, {0, -1, 0}};
+  std::vector<Vec3f> x = pyramid;
+  EXPECT_EQ(erode(x, fan, 0.1f), 0u);
+  x = pyramid;
+  EXPECT_EQ(erode(x, fan, 1.5f), fan.size());
+}
+
+TEST(AttributeTransfer, MatchesABruteForceWeightedMean) {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> u(0, 1);
+  std::vector<Vec3f> particles(500);
+  Attribute a{"value", 2, false, {}};
+  for (auto& p : particles) {
+    p = {u(rng), u(rng), u(rng)};
+    a.values.push_back(p.x * 3 + 1);
+    a.values.push_back(u(rng));
+  }
+  const HashGrid grid(particles, 0.1f);
+  std::vector<Vec3f> vertices(200);
+  for (auto& v : vertices) v = {u(rng) * 1.4f - 0.2f, u(rng), u(rng)};
+  vertices.push_back({5, 5, 5});  // far from everything: nearest particle's value
+  const float radius = 0.15f;
+  const Attribute out = transfer_attribute(a, grid, vertices, radius);
+  ASSERT_EQ(out.values.size(), vertices.size() * 2);
+  for (std::size_t v = 0; v < vertices.size(); ++v) {
+    double sum[2] = {0, 0}, wsum = 0;
+    std::size_t nearest = 0;
+    for (std::size_t i = 0; i < particles.size(); ++i) {
+      const double r2 = length2(particles[i] - vertices[v]);
+      if (r2 < length2(particles[nearest] - vertices[v])) nearest = i;
+      const double q = 1 - r2 / (radius * radius);
+      if (q <= 0) continue;
+      const double w = q * q * q;
+      sum[0] += w * a.values[i * 2];
+      sum[1] += w * a.values[i * 2 + 1];
+      wsum += w;
+    }
+    for (int c = 0; c < 2; ++c) {
+      const double expected = wsum > 0 ? sum[c] / wsum : a.values[nearest * 2 + std::size_t(c)];
+      EXPECT_NEAR(out.values[v * 2 + std::size_t(c)], expected, 1e-4) << v;
+    }
+  }
+}
+
+TEST(Voids, RemovesSmallInwardComponentsOnly) {
+  TriangleMesh m = octahedron(5.0f);                       // the fluid: kept
+  const TriangleMesh small_void = octahedron(0.5f, {0, 0, 0}, true);   // volume 0.167: removed
+  const TriangleMesh big_void = octahedron(2.0f, {0.5f, 0, 0}, true);  // volume 10.7: kept
+  const TriangleMesh droplet = octahedron(0.3f, {9, 0, 0});           // small but outward: kept
+  for (const TriangleMesh* part : {&small_void, &big_void, &droplet}) {
+    const uint32_t base = uint32_t(m.vertices.size());
+    m.vertices.insert(m.vertices.end(), part->vertices.begin(), part->vertices.end());
+    for (Triangle t : part->triangles) m.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+  }
+  const double before = signed_volume(m);
+  EXPECT_EQ(remove_small_voids(m, 1.0), 1u);
+  EXPECT_EQ(m.vertices.size(), 18u);
+  EXPECT_EQ(m.triangles.size(), 24u);
+  EXPECT_NEAR(signed_volume(m), before + 4.0 / 3.0 * 0.125, 1e-4);
+  const TopologyReport t = analyze_topology(m);
+  EXPECT_TRUE(t.watertight());
+  EXPECT_EQ(t.components, 3u);
+  EXPECT_EQ(t.unreferenced_vertices, 0u);
+}
+
+}  // namespace
+}  // namespace meniscus

@@ -34,7 +34,7 @@ void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
   Params& p = a.params;
   cmd.add_option("input", a.input, "particle file (.ply, .xyz)")->required();
   cmd.add_option("-o,--output", a.output, "mesh file to write (.ply)")->required();
-  cmd.add_option("--spacing", p.spacing, "particle separation d (default: median nearest-neighbour distance)")
+  cmd.add_option("--spacing", p.spacing, "particle separation d (default: estimated from the particles, see README)")
       ->check(CLI::PositiveNumber);
   cmd.add_option("--voxel-size", p.voxel_size, "field resolution h (default d/2)")->check(CLI::PositiveNumber);
   cmd.add_option("--r-outer", p.r_outer, "initial surface radius around each particle (default 1.0 d)")

@@ -124,6 +124,24 @@ TEST(Cli, MissingOrBrokenInputFailsCleanly) {
   EXPECT_FALSE(std::filesystem::exists(tmp.file("m.ply")));
 }
 
+TEST(Cli, ProgressBarOnlyOnATerminal) {
+  if (run_command("command -v script >/dev/null") != 0) GTEST_SKIP() << "skipped: util-linux 'script' not installed";
+  TempDir tmp;
+  const std::string job = cli() + " surface " + sample() + " -o " + tmp.file("m.ply");
+  std::string out;
+  // `script` runs the job on a pseudo-terminal.
+  ASSERT_EQ(run_command("script -qec '" + job + "' /dev/null", &out), 0) << out;
+  EXPECT_NE(out.find("smooth"), std::string::npos) << out;
+  EXPECT_NE(out.find("%"), std::string::npos) << out;
+  EXPECT_NE(out.find('\r'), std::string::npos) << "no progress redraws on a terminal";
+  ASSERT_EQ(run_command("script -qec '" + job + " --quiet' /dev/null", &out), 0) << out;
+  EXPECT_EQ(out.find('%'), std::string::npos) << out;
+  // Piped: the summary, but no progress bar.
+  ASSERT_EQ(run_command(job, &out), 0) << out;
+  EXPECT_EQ(out.find('\r'), std::string::npos) << out;
+  EXPECT_NE(out.find("triangles"), std::string::npos) << out;
+}
+
 TEST(Cli, InfoListsVersionBackendsAndFormats) {
   std::string out;
   ASSERT_EQ(run_command(cli() + " info", &out), 0);

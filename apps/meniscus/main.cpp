@@ -3,7 +3,11 @@
 #include <fmt/format.h>
 #include <tbb/info.h>
 
+#include <atomic>
 #include <chrono>
+#include <mutex>
+#include <optional>
+#include <thread>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -15,6 +19,7 @@
 #include "meniscus/io.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "meniscus/render.hpp"
+#include "meniscus/sequence.hpp"
 #include "progress.hpp"
 
 namespace {
@@ -26,14 +31,21 @@ constexpr int kExitUsage = 2;
 
 struct SurfaceArgs {
   std::string input, output, stats_path, preview_path, extract = "tiles", solver = "gauss-seidel", up = "z";
-  bool quiet = false, drop_invalid = false;
+  std::string frames;
+  int jobs = 1;
+  bool quiet = false, drop_invalid = false, fail_fast = false;
   Params params;
 };
 
 void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
   Params& p = a.params;
-  cmd.add_option("input", a.input, "particle file (.ply, .xyz)")->required();
-  cmd.add_option("-o,--output", a.output, "mesh file to write (.ply)")->required();
+  cmd.add_option("input", a.input,
+                 "particle file, or a sequence pattern with a frame placeholder: fluid_####.ply, fluid_{}.ply, fluid_%04d.ply")
+      ->required();
+  cmd.add_option("-o,--output", a.output, "mesh file to write (with a frame placeholder for a sequence)")->required();
+  cmd.add_option("--frames", a.frames, "frames of a sequence: 1-240, 1-240:2, 1,5,10-20 (default: every file found)");
+  cmd.add_option("--jobs", a.jobs, "frames of a sequence surfaced at once")->check(CLI::PositiveNumber)->capture_default_str();
+  cmd.add_flag("--fail-fast", a.fail_fast, "stop a sequence at the first frame that fails");
   cmd.add_option("--spacing", p.spacing, "particle separation d (default: estimated from the particles, see README)")
       ->check(CLI::PositiveNumber);
   cmd.add_option("--voxel-size", p.voxel_size, "field resolution h (default d/2)")->check(CLI::PositiveNumber);
@@ -87,65 +99,145 @@ void write_text_file(const std::string& path, const std::string& text) {
   file.commit();
 }
 
-int run_surface(SurfaceArgs& a) {
-  a.params.extract = parse_extractor(a.extract);
-  a.params.solver = parse_solver(a.solver);
-  a.params.validate();
-  // Refuse an unknown output format before any work is done.
-  {
-    bool known = false;
-    for (const std::string& ext : mesh_formats())
-      if (a.output.size() >= ext.size() && a.output.compare(a.output.size() - ext.size(), ext.size(), ext) == 0)
-        known = true;
-    if (!known) throw InvalidParameter(fmt::format("output '{}': unknown mesh format (supported: {})", a.output,
-                                                   fmt::join(mesh_formats(), ", ")));
-  }
+void check_output_format(const std::string& output) {
+  for (const std::string& ext : mesh_formats())
+    if (output.size() >= ext.size() && output.compare(output.size() - ext.size(), ext.size(), ext) == 0) return;
+  throw InvalidParameter(
+      fmt::format("output '{}': unknown mesh format (supported: {})", output, fmt::join(mesh_formats(), ", ")));
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// The files of one frame (or of the single job).
+struct FrameFiles {
+  std::string input, output, stats, preview;
+};
+
+/// Reads, surfaces and writes one frame; `verbose` prints the per-frame report.
+Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, const ProgressFn& progress) {
   const auto t0 = std::chrono::steady_clock::now();
   ReadOptions read_options;
   read_options.drop_invalid = a.drop_invalid;
   ReadReport report;
-  const ParticleSet particles = read_particles(a.input, read_options, &report);
-  const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (!a.quiet) {
-    fmt::print(stderr, "read {} particles from {} ({})\n", particles.size(), a.input, report.format);
+  const ParticleSet particles = read_particles(f.input, read_options, &report);
+  const double read_seconds = seconds_since(t0);
+  if (verbose) {
+    fmt::print(stderr, "read {} particles from {} ({})\n", particles.size(), f.input, report.format);
     if (report.dropped_invalid) fmt::print(stderr, "dropped {} particles with NaN/Inf coordinates\n", report.dropped_invalid);
   }
+  Result result = reconstruct(particles, a.params, progress);
+  result.stats.stages.insert(result.stats.stages.begin(), StageTime{"read", read_seconds});
 
-  cli::ProgressBar bar(!a.quiet);
-  Result result = reconstruct(particles, a.params, [&](std::string_view stage, double f) { bar.update(stage, f); });
-  bar.finish();
-  if (!a.quiet && a.params.spacing == 0)
-    fmt::print(stderr, "estimated particle spacing {:.6g} (from the particle distances and density; set --spacing to override)\n",
-               result.params.spacing);
-
-  for (const std::string* out : {&a.output, &a.preview_path, &a.stats_path})
+  for (const std::string* out : {&f.output, &f.preview, &f.stats})
     if (!out->empty()) make_parent_dirs(*out);
   const auto t1 = std::chrono::steady_clock::now();
-  write_mesh(a.output, result.mesh);
-  result.stats.stages.insert(result.stats.stages.begin(), StageTime{"read", read_seconds});
-  result.stats.stages.push_back(
-      {"write", std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count()});
-  if (!a.preview_path.empty()) {
+  write_mesh(f.output, result.mesh);
+  result.stats.stages.push_back({"write", seconds_since(t1)});
+  if (!f.preview.empty()) {
     const auto t2 = std::chrono::steady_clock::now();
     RenderOptions view;
     view.up = a.up == "x" ? Vec3f{1, 0, 0} : (a.up == "y" ? Vec3f{0, 1, 0} : Vec3f{0, 0, 1});
-    write_png(a.preview_path, render_mesh(result.mesh, view));
-    result.stats.stages.push_back(
-        {"preview", std::chrono::duration<double>(std::chrono::steady_clock::now() - t2).count()});
+    write_png(f.preview, render_mesh(result.mesh, view));
+    result.stats.stages.push_back({"preview", seconds_since(t2)});
   }
-  if (!a.stats_path.empty()) write_text_file(a.stats_path, stats_to_json(result) + "\n");
+  if (!f.stats.empty()) write_text_file(f.stats, stats_to_json(result) + "\n");
+  return result;
+}
 
-  if (!a.quiet) {
-    for (const std::string& w : result.stats.warnings) fmt::print(stderr, "warning: {}\n", w);
-    const Stats& s = result.stats;
-    std::string stages;
-    for (const StageTime& t : s.stages) stages += fmt::format("{}{} {:.3f}s", stages.empty() ? "" : ", ", t.name, t.seconds);
-    fmt::print(stderr, "{} particles → {} vertices, {} triangles in {:.3f}s on {} threads, peak memory {:.0f} MB\n",
-               s.particles, s.vertices, s.triangles, s.total_seconds(), s.threads, double(s.peak_memory_bytes) / 1e6);
-    fmt::print(stderr, "  {}\n", stages);
-    fmt::print(stderr, "wrote {}{}{}\n", a.output, a.preview_path.empty() ? "" : ", " + a.preview_path,
-               a.stats_path.empty() ? "" : ", " + a.stats_path);
+void print_summary(const SurfaceArgs& a, const FrameFiles& f, const Result& result) {
+  if (a.params.spacing == 0)
+    fmt::print(stderr, "estimated particle spacing {:.6g} (from the particle distances and density; set --spacing to override)\n",
+               result.params.spacing);
+  for (const std::string& w : result.stats.warnings) fmt::print(stderr, "warning: {}\n", w);
+  const Stats& s = result.stats;
+  std::string stages;
+  for (const StageTime& t : s.stages) stages += fmt::format("{}{} {:.3f}s", stages.empty() ? "" : ", ", t.name, t.seconds);
+  fmt::print(stderr, "{} particles → {} vertices, {} triangles in {:.3f}s on {} threads, peak memory {:.0f} MB\n",
+             s.particles, s.vertices, s.triangles, s.total_seconds(), s.threads, double(s.peak_memory_bytes) / 1e6);
+  fmt::print(stderr, "  {}\n", stages);
+  fmt::print(stderr, "wrote {}{}{}\n", f.output, f.preview.empty() ? "" : ", " + f.preview, f.stats.empty() ? "" : ", " + f.stats);
+}
+
+/// A sequence: every frame of the input pattern, in order, one progress bar; a failed frame is
+/// reported with its number and the others go on unless --fail-fast.
+int run_sequence(const SurfaceArgs& a, const FramePattern& in) {
+  const auto out = parse_frame_pattern(a.output);
+  if (!out) throw InvalidParameter(fmt::format("output '{}' needs a frame placeholder (####, {{}} or %04d) like the input", a.output));
+  std::optional<FramePattern> stats, preview;
+  for (auto [path, pattern] : {std::pair{&a.stats_path, &stats}, std::pair{&a.preview_path, &preview}}) {
+    if (path->empty()) continue;
+    *pattern = parse_frame_pattern(*path);
+    if (!*pattern) throw InvalidParameter(fmt::format("'{}' needs a frame placeholder in a sequence", *path));
   }
+  const std::vector<int> frames = a.frames.empty() ? discover_frames(in) : parse_frame_ranges(a.frames);
+  if (frames.empty()) throw InvalidParameter(fmt::format("no frames found for '{}' (give --frames)", a.input));
+
+  const auto t0 = std::chrono::steady_clock::now();
+  cli::ProgressBar bar(!a.quiet);
+  std::mutex mutex;  // guards the bar, the report lines and the counters below
+  std::vector<int> failed;
+  std::size_t done = 0, triangles = 0;
+  std::atomic<std::size_t> next{0};
+  std::atomic<bool> stop{false};
+  const int jobs = std::max(1, std::min<int>(a.jobs, int(frames.size())));
+  auto worker = [&] {
+    for (;;) {
+      if (stop) return;
+      const std::size_t i = next++;
+      if (i >= frames.size()) return;
+      const int frame = frames[i];
+      FrameFiles f{in.format(frame), out->format(frame), stats ? stats->format(frame) : "",
+                   preview ? preview->format(frame) : ""};
+      try {
+        const Result r = surface_one(a, f, false, [&](std::string_view stage, double fraction) {
+          if (jobs > 1) return;
+          std::lock_guard lock(mutex);
+          bar.update(fmt::format("frame {} {}", frame, stage), (double(done) + fraction) / double(frames.size()));
+        });
+        std::lock_guard lock(mutex);
+        ++done;
+        triangles += r.stats.triangles;
+        bar.update(fmt::format("frame {}", frame), double(done) / double(frames.size()));
+      } catch (const std::exception& e) {
+        std::lock_guard lock(mutex);
+        ++done;
+        failed.push_back(frame);
+        bar.finish();
+        fmt::print(stderr, "meniscus: frame {}: error: {}\n", frame, e.what());
+        if (a.fail_fast) stop = true;
+      }
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int j = 1; j < jobs; ++j) threads.emplace_back(worker);
+  worker();
+  for (std::thread& t : threads) t.join();
+  bar.finish();
+  std::sort(failed.begin(), failed.end());
+  const std::size_t ok = done - failed.size();
+  if (!a.quiet || !failed.empty())
+    fmt::print(stderr, "{} of {} frames surfaced ({} triangles) in {:.2f}s{}{}\n", ok, frames.size(), triangles,
+               seconds_since(t0), failed.empty() ? "" : fmt::format("; failed: {}", fmt::join(failed, ", ")),
+               stop ? "; stopped at the first failure (--fail-fast)" : "");
+  return failed.empty() ? 0 : kExitRuntime;
+}
+
+int run_surface(SurfaceArgs& a) {
+  a.params.extract = parse_extractor(a.extract);
+  a.params.solver = parse_solver(a.solver);
+  a.params.validate();
+  check_output_format(a.output);  // refuse an unknown format before any work is done
+  if (a.jobs < 1) throw InvalidParameter(fmt::format("jobs = {}: must be ≥ 1", a.jobs));
+  if (const auto pattern = parse_frame_pattern(a.input)) return run_sequence(a, *pattern);
+  if (!a.frames.empty()) throw InvalidParameter("--frames needs an input pattern with a frame placeholder (####, {} or %04d)");
+
+  const FrameFiles f{a.input, a.output, a.stats_path, a.preview_path};
+  cli::ProgressBar bar(!a.quiet);
+  const Result result = surface_one(a, f, !a.quiet, [&](std::string_view stage, double fraction) { bar.update(stage, fraction); });
+  bar.finish();
+  if (!a.quiet) print_summary(a, f, result);
   return 0;
 }
 

@@ -142,6 +142,49 @@ TEST(Cli, ProgressBarOnlyOnATerminal) {
   EXPECT_NE(out.find("triangles"), std::string::npos) << out;
 }
 
+TEST(Cli, SequencesReportFailedFramesAndGoOn) {
+  TempDir tmp;
+  const std::string small = test::data_file("ply/fluid_250_particles.ply");
+  std::filesystem::create_directory(tmp.path / "sim");
+  for (int f : {1, 2, 4}) std::filesystem::copy_file(small, tmp.file("sim/fluid_000" + std::to_string(f) + ".ply"));
+  {
+    std::ofstream broken(tmp.file("sim/fluid_0003.ply"));
+    broken << "ply\nformat binary_little_endian 1.0\nelement vertex 1000\nproperty float x\nproperty float y\n"
+              "property float z\nend_header\n1234";
+  }
+  const std::string base = cli() + " surface '" + tmp.file("sim/fluid_####.ply") + "' -o '" + tmp.file("mesh/m_{}.ply") +
+                           "' --steps-a 2 --steps-b 2 --steps-free 0";
+  std::string out;
+  EXPECT_EQ(run_command(base + " --frames 1-4", &out), 1) << out;
+  for (int f : {1, 2, 4}) EXPECT_TRUE(std::filesystem::exists(tmp.file("mesh/m_" + std::to_string(f) + ".ply"))) << f;
+  EXPECT_FALSE(std::filesystem::exists(tmp.file("mesh/m_3.ply")));
+  EXPECT_NE(out.find("frame 3: error"), std::string::npos) << out;
+  EXPECT_NE(out.find("fluid_0003.ply"), std::string::npos) << out;
+  EXPECT_NE(out.find("3 of 4 frames"), std::string::npos) << out;
+
+  // --fail-fast stops at frame 3: frame 4 is not written.
+  std::filesystem::remove_all(tmp.path / "mesh");
+  EXPECT_EQ(run_command(base + " --frames 1-4 --fail-fast", &out), 1) << out;
+  EXPECT_TRUE(std::filesystem::exists(tmp.file("mesh/m_2.ply")));
+  EXPECT_FALSE(std::filesystem::exists(tmp.file("mesh/m_4.ply")));
+
+  // Frames found on disk, two at a time, printf-style pattern.
+  std::filesystem::remove(tmp.file("sim/fluid_0003.ply"));
+  std::filesystem::remove_all(tmp.path / "mesh");
+  EXPECT_EQ(run_command(cli() + " surface '" + tmp.file("sim/fluid_%04d.ply") + "' -o '" + tmp.file("mesh/m_####.ply") +
+                            "' --jobs 2 --steps-a 2 --steps-b 2",
+                        &out),
+            0)
+      << out;
+  for (int f : {1, 2, 4}) EXPECT_TRUE(std::filesystem::exists(tmp.file("mesh/m_000" + std::to_string(f) + ".ply"))) << f;
+  // The same frame gives the same mesh whichever job ran it.
+  EXPECT_EQ(read_mesh(tmp.file("mesh/m_0001.ply")).triangles, read_mesh(tmp.file("mesh/m_0004.ply")).triangles);
+
+  // An output without a placeholder is refused before any work.
+  EXPECT_EQ(run_command(cli() + " surface '" + tmp.file("sim/fluid_####.ply") + "' -o " + tmp.file("single.ply"), &out), 2);
+  EXPECT_NE(out.find("frame placeholder"), std::string::npos) << out;
+}
+
 TEST(Cli, InfoListsVersionBackendsAndFormats) {
   std::string out;
   ASSERT_EQ(run_command(cli() + " info", &out), 0);

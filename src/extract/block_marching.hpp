@@ -57,4 +57,19 @@ using BlockKernel = uint32_t (*)(const PaddedMasks& masks, uint64_t* out);
 /// number of threads.
 std::vector<uint64_t> march_blocks(const SparseField& field, float iso, bool full_stencil, BlockKernel kernel);
 
+/// The BlockKernel of a cubic-lattice extractor: runs `cell` (march_cube_cell, march_kuhn_cell)
+/// on every cell of the block, in x-fastest order, appending its triangles' corner keys.
+template <uint32_t (*cell)(const uint8_t*, int, int, uint64_t, uint64_t*)>
+uint32_t march_cubic_block(const PaddedMasks& masks, uint64_t* out) {
+  const int n = masks.cells, sy = masks.padded, sz = masks.padded * masks.padded;
+  uint32_t count = 0;
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        const uint64_t cell_key = edge_key(masks.origin + Vec3i{x, y, z}, 0);
+        count += cell(masks.at(x, y, z), sy, sz, cell_key, out != nullptr ? out + 3 * std::size_t(count) : nullptr);
+      }
+  return count;
+}
+
 }  // namespace meniscus

@@ -13,6 +13,9 @@ namespace meniscus {
 struct ReadOptions {
   /// Drop particles with NaN/Inf coordinates instead of refusing the file.
   bool drop_invalid = false;
+  /// Column names for headerless text particle files (.csv/.txt), e.g. SPHysics IPART:
+  /// {"x","y","z","vx","vy","vz","rho","p","mass"}. Empty: the first line must name the columns.
+  std::vector<std::string> columns;
 };
 
 struct ReadReport {

@@ -8,8 +8,17 @@
 
 #include <fmt/format.h>
 
+#include "io/bgeo_classic.hpp"
+#include "io/bgeo_json.hpp"
+#include "io/blosc_container.hpp"
 #include "io/ply.hpp"
 #include "io/xyz.hpp"
+#include "io/csv.hpp"
+#include "io/npy.hpp"
+#include "io/obj.hpp"
+#include "io/usda.hpp"
+#include "io/vtk_legacy.hpp"
+#include "io/vtu.hpp"
 #include "meniscus/errors.hpp"
 
 namespace meniscus::io {
@@ -18,6 +27,13 @@ const std::vector<ParticleReader>& particle_readers() {
   static const std::vector<ParticleReader> table = {
       {"ply", {".ply"}, &sniff_ply, &read_ply_particles},
       {"xyz", {".xyz"}, nullptr, &read_xyz_particles},
+      {"bgeo", {".bgeo", ".bhclassic"}, &sniff_bgeo_classic, &read_bgeo_classic_particles},
+      {"bgeo (binary JSON)", {}, &sniff_bgeo_json, &read_bgeo_json_particles},
+      {"bgeo.sc", {".sc"}, &sniff_blosc_container, &read_bgeo_sc_particles},
+      {"vtk", {".vtk"}, &sniff_vtk_legacy, &read_vtk_legacy_particles},
+      {"vtu", {".vtu", ".vtp"}, &sniff_vtu, &read_vtu_particles},
+      {"npy", {".npy"}, &sniff_npy, &read_npy_particles},
+      {"csv", {".csv", ".txt"}, nullptr, &read_csv_particles},
   };
   return table;
 }
@@ -25,6 +41,9 @@ const std::vector<ParticleReader>& particle_readers() {
 const std::vector<MeshReader>& mesh_readers() {
   static const std::vector<MeshReader> table = {
       {"ply", {".ply"}, &sniff_ply, &read_ply_mesh},
+      {"bgeo", {".bgeo"}, &sniff_bgeo_classic, &read_bgeo_classic_mesh},
+      {"vtk", {".vtk"}, &sniff_vtk_legacy, &read_vtk_legacy_mesh},
+      {"obj", {".obj"}, nullptr, &read_obj_mesh},
   };
   return table;
 }
@@ -32,6 +51,10 @@ const std::vector<MeshReader>& mesh_readers() {
 const std::vector<MeshWriter>& mesh_writers() {
   static const std::vector<MeshWriter> table = {
       {"ply", {".ply"}, &write_ply_mesh},
+      {"bgeo", {".bgeo"}, &write_bgeo_mesh},
+      {"obj", {".obj"}, &write_obj_mesh},
+      {"vtk", {".vtk"}, &write_vtk_legacy_mesh},
+      {"usda", {".usda"}, &write_usda_mesh},
   };
   return table;
 }

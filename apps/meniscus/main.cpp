@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "field/vdb_export.hpp"
 #include "io/atomic_file.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
@@ -31,7 +32,8 @@ constexpr int kExitUsage = 2;
 
 struct SurfaceArgs {
   std::string input, output, stats_path, preview_path, extract = "tiles", solver = "gauss-seidel", up = "z";
-  std::string frames;
+  std::string frames, field_path;
+  std::vector<std::string> columns;
   int jobs = 1;
   bool quiet = false, drop_invalid = false, fail_fast = false;
   Params params;
@@ -76,10 +78,13 @@ void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
   cmd.add_option("--max-memory", p.max_memory_gb, "refuse jobs estimated above this many GB (default 90 % of RAM)")
       ->check(CLI::PositiveNumber);
   cmd.add_option("--stats", a.stats_path, "write counts, stage times and the parameters used as JSON");
+  cmd.add_option("--save-field", a.field_path, "also write the distance field as an OpenVDB level set (.vdb)");
   cmd.add_option("--preview", a.preview_path, "also render a shaded preview picture (.png)");
   cmd.add_option("--up", a.up, "up axis of the preview's camera (SPlisHSPlasH and Houdini scenes are y-up)")
       ->check(CLI::IsMember({"x", "y", "z"}))->capture_default_str();
   cmd.add_flag("--keep-voids", p.keep_voids, "keep interior voids smaller than (2 d)³ (removed by default)");
+  cmd.add_option("--columns", a.columns, "column names of headerless text particles (e.g. x,y,z,vx,vy,vz,rho)")
+      ->delimiter(',');
   cmd.add_flag("--drop-invalid", a.drop_invalid, "drop particles with NaN/Inf coordinates instead of failing");
   cmd.add_flag("-q,--quiet", a.quiet, "no progress bar and no summary");
 }
@@ -112,7 +117,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 /// The files of one frame (or of the single job).
 struct FrameFiles {
-  std::string input, output, stats, preview;
+  std::string input, output, stats, preview, field;
 };
 
 /// Reads, surfaces and writes one frame; `verbose` prints the per-frame report.
@@ -120,6 +125,7 @@ Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, cons
   const auto t0 = std::chrono::steady_clock::now();
   ReadOptions read_options;
   read_options.drop_invalid = a.drop_invalid;
+  read_options.columns = a.columns;
   ReadReport report;
   const ParticleSet particles = read_particles(f.input, read_options, &report);
   const double read_seconds = seconds_since(t0);
@@ -130,7 +136,7 @@ Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, cons
   Result result = reconstruct(particles, a.params, progress);
   result.stats.stages.insert(result.stats.stages.begin(), StageTime{"read", read_seconds});
 
-  for (const std::string* out : {&f.output, &f.preview, &f.stats})
+  for (const std::string* out : {&f.output, &f.preview, &f.stats, &f.field})
     if (!out->empty()) make_parent_dirs(*out);
   const auto t1 = std::chrono::steady_clock::now();
   write_mesh(f.output, result.mesh);
@@ -141,6 +147,11 @@ Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, cons
     view.up = a.up == "x" ? Vec3f{1, 0, 0} : (a.up == "y" ? Vec3f{0, 1, 0} : Vec3f{0, 0, 1});
     write_png(f.preview, render_mesh(result.mesh, view));
     result.stats.stages.push_back({"preview", seconds_since(t2)});
+  }
+  if (!f.field.empty()) {
+    const auto t3 = std::chrono::steady_clock::now();
+    write_field_vdb(f.field, particles, result.params);
+    result.stats.stages.push_back({"save_field", seconds_since(t3)});
   }
   if (!f.stats.empty()) write_text_file(f.stats, stats_to_json(result) + "\n");
   return result;
@@ -165,8 +176,9 @@ void print_summary(const SurfaceArgs& a, const FrameFiles& f, const Result& resu
 int run_sequence(const SurfaceArgs& a, const FramePattern& in) {
   const auto out = parse_frame_pattern(a.output);
   if (!out) throw InvalidParameter(fmt::format("output '{}' needs a frame placeholder (####, {{}} or %04d) like the input", a.output));
-  std::optional<FramePattern> stats, preview;
-  for (auto [path, pattern] : {std::pair{&a.stats_path, &stats}, std::pair{&a.preview_path, &preview}}) {
+  std::optional<FramePattern> stats, preview, field;
+  for (auto [path, pattern] :
+       {std::pair{&a.stats_path, &stats}, std::pair{&a.preview_path, &preview}, std::pair{&a.field_path, &field}}) {
     if (path->empty()) continue;
     *pattern = parse_frame_pattern(*path);
     if (!*pattern) throw InvalidParameter(fmt::format("'{}' needs a frame placeholder in a sequence", *path));
@@ -189,7 +201,7 @@ int run_sequence(const SurfaceArgs& a, const FramePattern& in) {
       if (i >= frames.size()) return;
       const int frame = frames[i];
       FrameFiles f{in.format(frame), out->format(frame), stats ? stats->format(frame) : "",
-                   preview ? preview->format(frame) : ""};
+                   preview ? preview->format(frame) : "", field ? field->format(frame) : ""};
       try {
         const Result r = surface_one(a, f, false, [&](std::string_view stage, double fraction) {
           if (jobs > 1) return;
@@ -229,11 +241,13 @@ int run_surface(SurfaceArgs& a) {
   a.params.solver = parse_solver(a.solver);
   a.params.validate();
   check_output_format(a.output);  // refuse an unknown format before any work is done
+  if (!a.field_path.empty() && !has_openvdb())
+    throw InvalidParameter("--save-field: this meniscus was built without OpenVDB (install libopenvdb-dev and rebuild)");
   if (a.jobs < 1) throw InvalidParameter(fmt::format("jobs = {}: must be ≥ 1", a.jobs));
   if (const auto pattern = parse_frame_pattern(a.input)) return run_sequence(a, *pattern);
   if (!a.frames.empty()) throw InvalidParameter("--frames needs an input pattern with a frame placeholder (####, {} or %04d)");
 
-  const FrameFiles f{a.input, a.output, a.stats_path, a.preview_path};
+  const FrameFiles f{a.input, a.output, a.stats_path, a.preview_path, a.field_path};
   cli::ProgressBar bar(!a.quiet);
   const Result result = surface_one(a, f, !a.quiet, [&](std::string_view stage, double fraction) { bar.update(stage, fraction); });
   bar.finish();
@@ -245,6 +259,7 @@ int run_info() {
   fmt::print("meniscus {}\n", version());
   fmt::print("backends: cpu (oneTBB, {} threads)\n", tbb::info::default_concurrency());
   fmt::print("cuda: not built\n");
+  fmt::print("openvdb: {}\n", has_openvdb() ? "yes (--save-field writes .vdb level sets)" : "no");
   fmt::print("particle formats: {}\n", fmt::join(particle_formats(), " "));
   fmt::print("mesh formats: {}\n", fmt::join(mesh_formats(), " "));
   fmt::print("extractors: tiles cubes tetrahedra\n");

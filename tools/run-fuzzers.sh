@@ -9,20 +9,23 @@ build=build/fuzz
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ -DMENISCUS_FUZZ=ON >/dev/null
 cmake --build "$build" -j "$(nproc)"
 
-seeds_for() {  # the real files of a format, by extension
-  case "$1" in
-    ply) find tests/data -name '*.ply' ;;
-    xyz) printf '' ;;
-    *) find tests/data -name "*.$1" ;;
+seed() {  # the real files of a format as seeds, or a tiny valid file where there is none
+  local format=$1 corpus=$2
+  case "$format" in
+    ply|bgeo|vtk|vtu) find tests/data -name "*.$format" -size -400k -exec cp {} "$corpus/" \; ;;
+    sc) cp tests/data/*.bgeo.sc "$corpus/" ;;
+    csv) { gzip -dc tests/data/sphysics_dam_break_IPART_29814_particles.txt.gz | head -n 50 > "$corpus/ipart.txt"; } || true
+         printf 'x,y,z,vx,vy,vz\n0,0,0,1,2,3\n1,1,1,0,0,0\n' > "$corpus/header.csv" ;;
+    xyz) printf '\x00\x00\x80\x3f\x00\x00\x00\x40\x00\x00\x40\x40' > "$corpus/one.xyz" ;;
+    npy) /usr/bin/python3 -c "import numpy; numpy.save('$corpus/a.npy', numpy.arange(12, dtype='<f4').reshape(4, 3))" ;;
+    bgeojson) printf '\x7fNSJb[' > "$corpus/stub.bgeo" ;;
   esac
 }
 status=0
 for target in "$build"/tests/fuzz/fuzz_*; do
   format=${target##*/fuzz_}
   corpus=$(mktemp -d)
-  while read -r f; do [[ -n $f ]] && cp "$f" "$corpus/"; done < <(seeds_for "$format")
-  # A tiny valid seed for formats without real files.
-  [[ $format == xyz ]] && printf '\x00\x00\x80\x3f\x00\x00\x00\x40\x00\x00\x40\x40' > "$corpus/one.xyz"
+  seed "$format" "$corpus"
   echo "== fuzzing $format for ${seconds}s ($(ls "$corpus" | wc -l) seeds)"
   if ! "$target" "$corpus" -max_total_time="$seconds" -max_len=1048576 -rss_limit_mb=2048 -timeout=10 \
        -print_final_stats=1 -artifact_prefix="$build/crash-$format-" 2>&1 | tail -n 12; then

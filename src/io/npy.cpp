@@ -21,15 +21,16 @@ struct PyValue {
   std::string text;
   int64_t number = 0;
   std::vector<PyValue> items;                     // sequence
-  std::vector<std::pair<std::string, PyValue>> entries;  // dict
+  // dict: keys[i] ↦ values[i] (two vectors: a vector of pairs would need PyValue complete here)
+  std::vector<std::string> keys;
+  std::vector<PyValue> values;
 
   const PyValue* get(std::string_view key) const;
 };
 
-// Out of the class body: std::pair<std::string, PyValue> needs PyValue complete (clang insists).
 const PyValue* PyValue::get(std::string_view key) const {
-  for (const auto& [k, v] : entries)
-    if (k == key) return &v;
+  for (std::size_t i = 0; i < keys.size(); ++i)
+    if (keys[i] == key) return &values[i];
   return nullptr;
 }
 
@@ -92,7 +93,8 @@ class LiteralParser {
         PyValue key = value(depth + 1);
         if (key.kind != PyValue::string) fail("expected a string key");
         if (!eat(':')) fail("expected ':'");
-        v.entries.emplace_back(key.text, value(depth + 1));
+        v.keys.push_back(key.text);
+        v.values.push_back(value(depth + 1));
         if (!eat(',')) {
           if (!eat('}')) fail("expected ',' or '}'");
           break;

@@ -8,4 +8,4 @@ apt-get install -y -qq --no-install-recommends \
   libtbb-dev libfmt-dev nlohmann-json3-dev libcli11-dev zlib1g-dev libblosc-dev libstb-dev libopenvdb-dev \
   libgtest-dev libgmock-dev libbenchmark-dev \
   clang libclang-rt-14-dev \
-  python3 python3-numpy python3-meshio >/dev/null
+  python3 python3-numpy python3-meshio python3-vtk9 >/dev/null

@@ -333,19 +333,35 @@ bool have_meshio() { return std::system("/usr/bin/python3 -c 'import meshio' >/d
 // Writes the sample mesh as `ext`, reads it with meshio, compares counts, positions (bit for bit:
 // our text formats print the shortest round-trip decimal) and triangles. Returns false when
 // meshio refuses legacy POLYDATA (meshio < 5.1), so the caller can skip visibly.
-bool check_with_meshio(const std::string& ext) {
+const char* const kMeshioScript =
+    "import sys, meshio\n"
+    "m = meshio.read(sys.argv[1])\n"
+    "tris = sum(len(c.data) for c in m.cells if c.type == 'triangle')\n"
+    "print(len(m.points), tris)\n"
+    "for p in m.points: print(' '.join(repr(float(v)) for v in p[:3]))\n"
+    "for c in m.cells:\n"
+    "    if c.type == 'triangle':\n"
+    "        for t in c.data: print('t', ' '.join(str(int(i)) for i in t))\n";
+
+// The same listing from VTK's own legacy reader (Debian's python3-vtk9).
+const char* const kVtkScript =
+    "import sys, vtk\n"
+    "r = vtk.vtkPolyDataReader(); r.SetFileName(sys.argv[1]); r.Update()\n"
+    "pd = r.GetOutput(); polys = pd.GetPolys()\n"
+    "print(pd.GetNumberOfPoints(), polys.GetNumberOfCells())\n"
+    "for i in range(pd.GetNumberOfPoints()): print(' '.join(repr(float(v)) for v in pd.GetPoint(i)))\n"
+    "ids = vtk.vtkIdList(); polys.InitTraversal()\n"
+    "while polys.GetNextCell(ids): print('t', ' '.join(str(ids.GetId(k)) for k in range(ids.GetNumberOfIds())))\n"
+    "n = pd.GetPointData().GetNormals()\n"
+    "print('normals', 0 if n is None else n.GetNumberOfTuples())\n";
+
+/// Writes the sample mesh as `ext`, lists it with an independent Python reader (`script`) and
+/// compares counts, positions (bit-exact) and triangles. False when the reader refuses POLYDATA.
+bool check_with_python(const std::string& ext, const char* script_text) {
   TempDir dir;
   const TriangleMesh mesh = sample_mesh();
   const std::string script = dir.file("count.py");
-  write_file(script,
-             "import sys, meshio\n"
-             "m = meshio.read(sys.argv[1])\n"
-             "tris = sum(len(c.data) for c in m.cells if c.type == 'triangle')\n"
-             "print(len(m.points), tris)\n"
-             "for p in m.points: print(' '.join(repr(float(v)) for v in p[:3]))\n"
-             "for c in m.cells:\n"
-             "    if c.type == 'triangle':\n"
-             "        for t in c.data: print('t', ' '.join(str(int(i)) for i in t))\n");
+  write_file(script, script_text);
   const std::string path = dir.file("mesh" + ext);
   write_mesh(path, mesh);
   std::string output;
@@ -373,6 +389,8 @@ bool check_with_meshio(const std::string& ext) {
   return true;
 }
 
+bool check_with_meshio(const std::string& ext) { return check_with_python(ext, kMeshioScript); }
+
 #define MENISCUS_REQUIRE_MESHIO()                                                                          \
   if (!have_meshio())                                                                                      \
   GTEST_SKIP() << "SKIPPED: /usr/bin/python3 cannot import meshio (apt-get install python3-meshio, see " \
@@ -386,6 +404,14 @@ TEST(MeshRoundTrip, MeshioReadsPly) {
 TEST(MeshRoundTrip, MeshioReadsObj) {
   MENISCUS_REQUIRE_MESHIO();
   EXPECT_TRUE(check_with_meshio(".obj"));
+}
+
+bool have_vtk_python() { return test::run_command("/usr/bin/python3 -c 'import vtk' 2>/dev/null") == 0; }
+
+TEST(MeshRoundTrip, VtkItselfReadsOurVtk) {
+  if (!have_vtk_python())
+    GTEST_SKIP() << "SKIPPED: /usr/bin/python3 cannot import vtk (apt-get install python3-vtk9, see tools/install-deps.sh)";
+  EXPECT_TRUE(check_with_python(".vtk", kVtkScript));
 }
 
 TEST(MeshRoundTrip, MeshioReadsVtk) {

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "support/test_support.hpp"
 
@@ -34,6 +35,12 @@ std::string floats(std::initializer_list<float> values) {
   return out;
 }
 
+std::string prefix(const std::string& data_name, std::size_t bytes) {
+  std::ifstream in(test::data_file(data_name), std::ios::binary);
+  std::string content((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return content.substr(0, std::min(bytes, content.size()));
+}
+
 std::vector<BadFile> bad_files() {
   return {
       {"empty.ply", "", {"empty.ply"}},
@@ -48,6 +55,13 @@ std::vector<BadFile> bad_files() {
       {"empty.xyz", "", {"empty.xyz"}},
       {"inf.xyz", floats({0, 0, 0, INFINITY, 1, 1}), {"inf.xyz", "particle 1"}},
       {"noformat.txt_unknown", "1 2 3\n", {"noformat.txt_unknown"}},
+      {"truncated.vtk", prefix("bunny_frame_14_7705_particles.vtk", 4000), {"truncated.vtk", "byte"}},
+      {"truncated.bgeo", prefix("partio_scatter.bgeo", 300), {"truncated.bgeo", "byte"}},
+      {"truncated.bgeo.sc", prefix("houdini_pop_splatter_13883_points.bgeo.sc", 5000), {"truncated.bgeo.sc", "byte"}},
+      {"truncated.vtu", prefix("fluid_250_particles.vtu", 3000), {"truncated.vtu"}},
+      {"bad_token.csv", "x,y,z\n0,0,0\n1,abc,1\n", {"bad_token.csv", "line 3"}},
+      {"wrong_magic.npy", "\x93NUMPX\x01\x00", {"wrong_magic.npy"}},
+      {"wrong_magic.bgeo", "Bgeo\x00\x00\x00\x00", {"wrong_magic.bgeo"}},
   };
 }
 

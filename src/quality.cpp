@@ -285,4 +285,65 @@ PlaneFit fit_plane(std::span<const Vec3f> points) {
   return fit;
 }
 
+std::size_t points_outside(const TriangleMesh& mesh, std::span<const Vec3f> points) {
+  if (mesh.triangles.empty()) return points.size();
+  // Bucket the triangles by their y-z bounding boxes on a grid of about one triangle per cell.
+  Vec3f lo = mesh.vertices[mesh.triangles[0][0]], hi = lo;
+  for (const Triangle& t : mesh.triangles)
+    for (uint32_t v : t) lo = min(lo, mesh.vertices[v]), hi = max(hi, mesh.vertices[v]);
+  const int res = std::clamp(int(std::sqrt(double(mesh.triangles.size()))), 1, 2048);
+  const double sy = std::max(double(hi.y - lo.y), 1e-30) / res, sz = std::max(double(hi.z - lo.z), 1e-30) / res;
+  auto cell = [&](double v, double origin, double size) { return std::clamp(int((v - origin) / size), 0, res - 1); };
+  std::vector<uint32_t> start(std::size_t(res) * res + 1, 0), ids;
+  for (int pass = 0; pass < 2; ++pass) {
+    std::vector<uint32_t> fill;
+    if (pass == 1) {
+      for (std::size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
+      ids.resize(start.back());
+      fill.assign(start.begin(), start.end() - 1);
+    }
+    for (uint32_t f = 0; f < mesh.triangles.size(); ++f) {
+      const Triangle& t = mesh.triangles[f];
+      const Vec3f a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], c = mesh.vertices[t[2]];
+      const int y0 = cell(std::min({a.y, b.y, c.y}), lo.y, sy), y1 = cell(std::max({a.y, b.y, c.y}), lo.y, sy);
+      const int z0 = cell(std::min({a.z, b.z, c.z}), lo.z, sz), z1 = cell(std::max({a.z, b.z, c.z}), lo.z, sz);
+      for (int z = z0; z <= z1; ++z)
+        for (int y = y0; y <= y1; ++y) {
+          const std::size_t k = std::size_t(z) * res + y;
+          if (pass == 0) ++start[k + 1]; else ids[fill[k]++] = f;
+        }
+    }
+  }
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, points.size(), 256), std::size_t(0),
+      [&](const auto& r, std::size_t outside) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          // Nudge the ray off the lattice the extraction vertices may share with the point.
+          const double py = double(points[i].y) + 1.234567e-7 * sy, pz = double(points[i].z) + 2.345671e-7 * sz;
+          const double px = points[i].x;
+          if (py < lo.y || py > hi.y || pz < lo.z || pz > hi.z || px > hi.x) {
+            ++outside;
+            continue;
+          }
+          const std::size_t k = std::size_t(cell(pz, lo.z, sz)) * res + cell(py, lo.y, sy);
+          int crossings = 0;
+          for (uint32_t j = start[k]; j < start[k + 1]; ++j) {
+            const Triangle& t = mesh.triangles[ids[j]];
+            const Vec3f a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], c = mesh.vertices[t[2]];
+            // Barycentrics of (py, pz) in the triangle's y-z projection.
+            const double d = (double(b.y) - a.y) * (double(c.z) - a.z) - (double(c.y) - a.y) * (double(b.z) - a.z);
+            if (d == 0) continue;
+            const double u = ((py - a.y) * (double(c.z) - a.z) - (double(c.y) - a.y) * (pz - a.z)) / d;
+            const double v = ((double(b.y) - a.y) * (pz - a.z) - (py - a.y) * (double(b.z) - a.z)) / d;
+            if (u < 0 || v < 0 || u + v > 1) continue;
+            const double x = a.x + u * (double(b.x) - a.x) + v * (double(c.x) - a.x);
+            if (x > px) ++crossings;
+          }
+          outside += (crossings % 2) == 0;
+        }
+        return outside;
+      },
+      std::plus<>());
+}
+
 }  // namespace meniscus

@@ -1,5 +1,6 @@
 // meniscus — command-line front end: `meniscus surface`, `meniscus info`.
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 #include <fmt/format.h>
 #include <tbb/info.h>
 
@@ -18,6 +19,7 @@
 #include "io/atomic_file.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
+#include "meniscus/quality.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "meniscus/render.hpp"
 #include "meniscus/sequence.hpp"
@@ -255,6 +257,81 @@ int run_surface(SurfaceArgs& a) {
   return 0;
 }
 
+struct InspectArgs {
+  std::string mesh, particles;
+  double r_inner = 0, r_outer = 0, spacing = 0;
+  bool json = false;
+};
+
+/// Quality metrics of any mesh (DESIGN §5), ours or another tool's.
+int run_inspect(const InspectArgs& a) {
+  const TriangleMesh mesh = read_mesh(a.mesh);
+  const TopologyReport t = analyze_topology(mesh);
+  const ValenceReport v = valence(mesh);
+  const AngleReport angles = triangle_angles(mesh);
+  nlohmann::ordered_json j;
+  j["mesh"] = a.mesh;
+  j["vertices"] = mesh.vertices.size();
+  j["triangles"] = mesh.triangles.size();
+  j["topology"] = {{"watertight", t.watertight()}, {"closed", t.closed()}, {"edge_manifold", t.edge_manifold()},
+                   {"vertex_manifold", t.nonmanifold_vertices == 0}, {"oriented", t.oriented()},
+                   {"components", t.components}, {"euler", t.euler}, {"boundary_edges", t.boundary_edges},
+                   {"nonmanifold_edges", t.nonmanifold_edges}, {"misoriented_edges", t.misoriented_edges},
+                   {"nonmanifold_vertices", t.nonmanifold_vertices}, {"degenerate_triangles", t.degenerate_triangles},
+                   {"unreferenced_vertices", t.unreferenced_vertices}};
+  j["valence"] = {{"min", v.min}, {"max", v.max}, {"mean", v.mean}, {"below_5", v.below_5},
+                  {"share_below_5", mesh.vertices.empty() ? 0.0 : double(v.below_5) / double(mesh.vertices.size())},
+                  {"histogram", v.histogram}};
+  j["angles"] = {{"min_degrees", angles.min_degrees}, {"max_degrees", angles.max_degrees},
+                 {"share_below_10", angles.share_below_10}};
+  const double volume = signed_volume(mesh);
+  j["volume"] = volume;
+  if (!a.particles.empty()) {
+    const ParticleSet ps = read_particles(a.particles);
+    Params in;
+    in.spacing = a.spacing;
+    in.r_inner = a.r_inner;
+    in.r_outer = a.r_outer;
+    const Params p = resolve_params(ps, in);
+    const ConstraintReport c = constraint_residual(mesh.vertices, ps.positions, p.r_inner, p.r_outer);
+    const std::size_t outside = points_outside(mesh, ps.positions);
+    const double particle_volume = double(ps.size()) * p.spacing * p.spacing * p.spacing;
+    j["particles"] = {{"file", a.particles}, {"count", ps.size()}, {"spacing", p.spacing},
+                      {"r_inner", p.r_inner}, {"r_outer", p.r_outer},
+                      {"constraint_residual", c.max_violation},
+                      {"vertex_distance_min", c.min_distance}, {"vertex_distance_max", c.max_distance},
+                      {"outside_surface", outside},
+                      {"share_outside_surface", double(outside) / double(std::max<std::size_t>(ps.size(), 1))},
+                      {"volume_over_particle_volume", volume / particle_volume}};
+  }
+  if (a.json) {
+    fmt::print("{}\n", j.dump(2));
+    return 0;
+  }
+  fmt::print("{}: {} vertices, {} triangles\n", a.mesh, mesh.vertices.size(), mesh.triangles.size());
+  fmt::print("topology: {} — {} component(s), Euler characteristic {}; {} boundary, {} non-manifold, {} misoriented edges; "
+             "{} non-manifold vertices; {} degenerate triangles\n",
+             t.watertight() ? "watertight" : "NOT watertight", t.components, t.euler, t.boundary_edges,
+             t.nonmanifold_edges, t.misoriented_edges, t.nonmanifold_vertices, t.degenerate_triangles);
+  fmt::print("valence: min {}, max {}, mean {:.2f}; {:.2f} % under 5\n", v.min, v.max, v.mean,
+             100.0 * j["valence"]["share_below_5"].get<double>());
+  fmt::print("angles: min {:.2f}°, max {:.2f}°; {:.2f} % under 10°\n", angles.min_degrees, angles.max_degrees,
+             100.0 * angles.share_below_10);
+  fmt::print("volume: {:.6g}\n", volume);
+  if (j.contains("particles")) {
+    const auto& q = j["particles"];
+    fmt::print("particles: {} (spacing {:.4g}); vertex distances {:.4g} .. {:.4g} for [r_inner {:.4g}, r_outer {:.4g}], "
+               "constraint residual {:.3g}\n",
+               q["count"].get<std::size_t>(), q["spacing"].get<double>(), q["vertex_distance_min"].get<double>(),
+               q["vertex_distance_max"].get<double>(), q["r_inner"].get<double>(), q["r_outer"].get<double>(),
+               q["constraint_residual"].get<double>());
+    fmt::print("particles outside the surface: {} ({:.2f} %); volume / (N·d³) = {:.3f}\n",
+               q["outside_surface"].get<std::size_t>(), 100.0 * q["share_outside_surface"].get<double>(),
+               q["volume_over_particle_volume"].get<double>());
+  }
+  return 0;
+}
+
 int run_info() {
   fmt::print("meniscus {}\n", version());
   fmt::print("backends: cpu (oneTBB, {} threads)\n", tbb::info::default_concurrency());
@@ -275,6 +352,16 @@ int main(int argc, char** argv) {
   SurfaceArgs surface;
   CLI::App* surface_cmd = app.add_subcommand("surface", "surface a particle file into a triangle mesh");
   add_surface_options(*surface_cmd, surface);
+  InspectArgs inspect;
+  CLI::App* inspect_cmd = app.add_subcommand("inspect", "quality metrics of a mesh: topology, valence, angles, constraints");
+  inspect_cmd->add_option("mesh", inspect.mesh, "mesh file (.ply, .obj, .vtk, .bgeo)")->required();
+  inspect_cmd->add_option("--particles", inspect.particles, "the particles it was made from: constraint residual, "
+                                                            "particles left outside");
+  inspect_cmd->add_option("--spacing", inspect.spacing, "particle spacing (default: estimated)")->check(CLI::PositiveNumber);
+  inspect_cmd->add_option("--r-inner", inspect.r_inner, "inner constraint radius (default 0.5 r_outer)")
+      ->check(CLI::PositiveNumber);
+  inspect_cmd->add_option("--r-outer", inspect.r_outer, "outer constraint radius (default 1.0 d)")->check(CLI::PositiveNumber);
+  inspect_cmd->add_flag("--json", inspect.json, "print the metrics as JSON");
   CLI::App* info_cmd = app.add_subcommand("info", "version, backends, threads and formats");
   try {
     app.parse(argc, argv);
@@ -284,6 +371,7 @@ int main(int argc, char** argv) {
   try {
     if (surface_cmd->parsed()) return run_surface(surface);
     if (info_cmd->parsed()) return run_info();
+    if (inspect_cmd->parsed()) return run_inspect(inspect);
   } catch (const meniscus::InvalidParameter& e) {
     fmt::print(stderr, "meniscus: error: {}\n", e.what());
     return kExitUsage;

@@ -67,4 +67,8 @@ struct PlaneFit {
 /// Least-squares plane through the points (smallest eigenvector of the covariance).
 PlaneFit fit_plane(std::span<const Vec3f> points);
 
+/// How many of `points` lie outside the closed mesh (ray parity along +x through a 2-D bucket
+/// grid of the triangles; rays are nudged off exact edges). Meaningful for closed meshes.
+std::size_t points_outside(const TriangleMesh& mesh, std::span<const Vec3f> points);
+
 }  // namespace meniscus

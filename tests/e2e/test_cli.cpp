@@ -185,6 +185,35 @@ TEST(Cli, SequencesReportFailedFramesAndGoOn) {
   EXPECT_NE(out.find("frame placeholder"), std::string::npos) << out;
 }
 
+TEST(Cli, InspectReportsTheQualityOfAnyMesh) {
+  TempDir tmp;
+  std::string out;
+  ASSERT_EQ(run_command(cli() + " surface " + sample() + " -o " + tmp.file("tiles.ply") + " --steps-free 0 -q", &out), 0)
+      << out;
+  ASSERT_EQ(run_command(cli() + " surface " + sample() + " -o " + tmp.file("cubes.obj") +
+                            " --extract cubes --steps-a 0 --steps-b 0 --steps-free 0 -q",
+                        &out),
+            0)
+      << out;
+  ASSERT_EQ(run_command(cli() + " inspect " + tmp.file("tiles.ply") + " --particles " + sample() + " --json 2>/dev/null", &out), 0)
+      << out;
+  const auto tiles = nlohmann::json::parse(out);
+  EXPECT_TRUE(tiles["topology"]["watertight"].get<bool>());
+  EXPECT_GE(tiles["valence"]["min"].get<int>(), 5);
+  EXPECT_LT(tiles["particles"]["constraint_residual"].get<double>(), 1e-5 * tiles["particles"]["r_outer"].get<double>());
+  EXPECT_EQ(tiles["particles"]["outside_surface"].get<int>(), 0);
+  ASSERT_EQ(run_command(cli() + " inspect " + tmp.file("cubes.obj") + " --json 2>/dev/null", &out), 0) << out;
+  const auto cubes = nlohmann::json::parse(out);
+  EXPECT_TRUE(cubes["topology"]["watertight"].get<bool>());
+  EXPECT_GT(cubes["valence"]["share_below_5"].get<double>(), 0.02);
+  EXPECT_LT(cubes["angles"]["min_degrees"].get<double>(), tiles["angles"]["min_degrees"].get<double>());
+  // Human-readable form.
+  ASSERT_EQ(run_command(cli() + " inspect " + tmp.file("tiles.ply"), &out), 0) << out;
+  EXPECT_NE(out.find("watertight"), std::string::npos) << out;
+  EXPECT_NE(run_command(cli() + " inspect " + tmp.file("missing.ply"), &out), 0);
+  EXPECT_NE(out.find("missing.ply"), std::string::npos) << out;
+}
+
 TEST(Cli, InfoListsVersionBackendsAndFormats) {
   std::string out;
   ASSERT_EQ(run_command(cli() + " info", &out), 0);

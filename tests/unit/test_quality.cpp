@@ -108,3 +108,30 @@ TEST(Quality, AnglesOfARightTriangle) {
 
 }  // namespace
 }  // namespace meniscus
+
+namespace meniscus {
+namespace {
+
+TEST(Quality, PointsOutsideByRayParity) {
+  // The cube of test Quality.ClosedCube…, scaled: points inside, outside, and on the lattice of
+  // its vertices' coordinates (the ray must not double-count at shared edges).
+  TriangleMesh m;
+  for (int i = 0; i < 8; ++i) m.vertices.push_back({float(i & 1) * 2, float((i >> 1) & 1) * 2, float((i >> 2) & 1) * 2});
+  m.triangles = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                 {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<float> u(-1, 3);
+  std::vector<Vec3f> pts;
+  std::size_t expected_outside = 0;
+  for (int i = 0; i < 5000; ++i) {
+    const Vec3f p{u(rng), u(rng), u(rng)};
+    pts.push_back(p);
+    expected_outside += !(p.x > 0 && p.x < 2 && p.y > 0 && p.y < 2 && p.z > 0 && p.z < 2);
+  }
+  pts.push_back({1, 1, 1});  // on the face diagonals' plane projection: inside
+  pts.push_back({0.5f, 1, 1});
+  EXPECT_EQ(points_outside(m, pts), expected_outside);
+}
+
+}  // namespace
+}  // namespace meniscus

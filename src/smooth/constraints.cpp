@@ -85,40 +85,48 @@ Vec3f project_vertex(const ShellConstraint& c, Vec3f x) {
   return project_with(c, x, [&](Vec3f y) { return nearest_particle(c, y); });
 }
 
+namespace {
+constexpr uint8_t kOverflow = 0xFF;
+}  // namespace
+
+void NeighbourCache::refresh(const ShellConstraint& c, uint32_t i, Vec3f y) {
+  anchors_[i] = y;
+  uint32_t* slots = ids_.data() + std::size_t(i) * kCapacity;
+  int n = 0;
+  c.particles->for_each_within(y, c.r_outer + margin_, [&](uint32_t id, float) {
+    if (n < kCapacity) slots[n] = id;
+    ++n;
+  });
+  counts_[i] = n <= kCapacity ? uint8_t(n) : kOverflow;
+}
+
 void NeighbourCache::build(const ShellConstraint& c, std::span<const Vec3f> x) {
   margin_ = 0.5f * c.r_outer;
-  const float reach = c.r_outer + margin_;
-  anchors_.assign(x.begin(), x.end());
-  offsets_.assign(x.size() + 1, 0);
+  anchors_.resize(x.size());
+  counts_.resize(x.size());
+  ids_.resize(x.size() * kCapacity);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 1024), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      uint32_t n = 0;
-      c.particles->for_each_within(x[i], reach, [&](uint32_t, float) { ++n; });
-      offsets_[i + 1] = n;
-    }
-  });
-  for (std::size_t i = 0; i < x.size(); ++i) offsets_[i + 1] += offsets_[i];
-  ids_.resize(offsets_[x.size()]);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 1024), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      uint32_t k = offsets_[i];
-      c.particles->for_each_within(x[i], reach, [&](uint32_t id, float) { ids_[k++] = id; });
-    }
+    for (std::size_t i = r.begin(); i != r.end(); ++i) refresh(c, uint32_t(i), x[i]);
   });
 }
 
-Vec3f NeighbourCache::project(const ShellConstraint& c, uint32_t i, Vec3f x) const {
+Vec3f NeighbourCache::project(const ShellConstraint& c, uint32_t i, Vec3f x) {
   const auto points = c.particles->sorted_points();
   const float reach = c.r_outer + margin_;
   return project_with(c, x, [&](Vec3f y) {
     // The list holds every particle within `reach` of the anchor, so it holds every particle
     // within reach − |y − anchor| of y: a nearest candidate inside that radius is exact.
-    const float moved = length(y - anchors_[i]);
-    if (moved < margin_) {
+    float moved = length(y - anchors_[i]);
+    if (moved >= margin_) {
+      refresh(c, i, y);
+      moved = 0;
+    }
+    if (counts_[i] != kOverflow) {
       HashGrid::Nearest best;
-      for (uint32_t k = offsets_[i]; k < offsets_[i + 1]; ++k) {
-        const float d2 = length2(points[ids_[k]] - y);
-        if (d2 < best.dist2 || (d2 == best.dist2 && ids_[k] < best.index)) best = {ids_[k], d2};
+      const uint32_t* slots = ids_.data() + std::size_t(i) * kCapacity;
+      for (int k = 0; k < counts_[i]; ++k) {
+        const float d2 = length2(points[slots[k]] - y);
+        if (d2 < best.dist2 || (d2 == best.dist2 && slots[k] < best.index)) best = {slots[k], d2};
       }
       const float certain = reach - moved;
       if (best.index != kNotFound && best.dist2 <= certain * certain) return best;

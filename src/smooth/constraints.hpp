@@ -23,19 +23,24 @@ Vec3f project_vertex(const ShellConstraint& c, Vec3f x);
 /// Per-vertex lists of the particles near each vertex, so that the projection in the smoothing
 /// sweeps (where vertices move little from one sweep to the next) scans a short contiguous
 /// list instead of querying the hash grid. Exact: a vertex that has moved too far from where its
-/// list was built, or whose nearest candidate cannot be certified, falls back to the grid.
+/// list was built refreshes its own list, and a nearest candidate that cannot be certified falls
+/// back to the grid. Each vertex touches only its own list, so vertices may be projected in
+/// parallel as long as no vertex is projected by two threads at once.
 class NeighbourCache {
  public:
+  static constexpr int kCapacity = 32;
   /// Lists, for every vertex, the particles within 1.5·r_outer of its current position.
   void build(const ShellConstraint& c, std::span<const Vec3f> x);
-  /// project_vertex(c, x) for vertex i, using its list where that is exact.
-  Vec3f project(const ShellConstraint& c, uint32_t i, Vec3f x) const;
-  std::size_t memory_bytes() const { return anchors_.size() * 16 + ids_.size() * 4; }
+  /// project_vertex(c, x) for vertex i, using (and if needed refreshing) its list.
+  Vec3f project(const ShellConstraint& c, uint32_t i, Vec3f x);
+  std::size_t memory_bytes() const { return anchors_.size() * (sizeof(Vec3f) + 1) + ids_.size() * 4; }
 
  private:
+  void refresh(const ShellConstraint& c, uint32_t i, Vec3f y);
   float margin_ = 0;
   std::vector<Vec3f> anchors_;
-  std::vector<uint32_t> offsets_, ids_;
+  std::vector<uint8_t> counts_;  ///< list length, or kOverflow when more than kCapacity particles
+  std::vector<uint32_t> ids_;    ///< kCapacity slots per vertex
 };
 
 /// Projects every vertex in parallel.

@@ -27,7 +27,18 @@ void apply_w(const Adjacency& adjacency, const CotanOperator& op, std::span<cons
 /// Energy xᵀ B x = Σ_k |(W x)_k|² / D_k (given y = W x).
 double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx);
 
-/// (B x)_i for one vertex from the current x (two rings), used by the Gauss–Seidel sweep.
+/// (B x)_i for one vertex given wx = W x: Σ_k W_ik / D_k (W x)_k over i and its ring.
+inline Vec3f bilaplacian_row_from_wx(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> wx,
+                                     uint32_t i) {
+  Vec3f out = wx[i] * (op.diag[i] / op.area[i]);
+  for (uint32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) {
+    const uint32_t k = adj.neighbors[e];
+    out += wx[k] * (op.w[e] / op.area[k]);
+  }
+  return out;
+}
+
+/// (B x)_i for one vertex from the current x (two rings).
 Vec3f bilaplacian_row(const Adjacency& adjacency, const CotanOperator& op, std::span<const Vec3f> x, uint32_t i);
 
 }  // namespace meniscus

@@ -57,13 +57,10 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
     ++done;
     if (progress && total > 0) progress(double(done) / total);
   };
-  // Vertices move little per sweep: the neighbour lists are rebuilt every few sweeps, and the
-  // projection falls back to the grid for any vertex that outran its list.
+  // Vertices move little per sweep: each keeps a list of its nearby particles, refreshed only
+  // when the vertex has moved too far from where the list was made.
   NeighbourCache cache;
-  constexpr int kCacheSweeps = 8;
-  auto refresh_cache = [&](int sweep) {
-    if (constraint && sweep % kCacheSweeps == 0) cache.build(*constraint, x);
-  };
+  if (constraint) cache.build(*constraint, x);
   auto project = [&](uint32_t i) {
     if (constraint) x[i] = cache.project(*constraint, i, x[i]);
   };
@@ -77,7 +74,6 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
       const Coloring colors = color_vertices(adj, 1);
       report.colors_a = colors.colors();
       for (int s = 0; s < o.steps_a; ++s, tick()) {
-        refresh_cache(s);
         for_each_in_colors(colors, [&](uint32_t i) {
           x[i] = x[i] + (neighbour_mean(adj, x, i) - x[i]) * w;
           project(i);
@@ -85,7 +81,6 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
       }
     } else {
       for (int s = 0; s < o.steps_a; ++s, tick()) {
-        refresh_cache(s);
         for_each_vertex(nv, [&](uint32_t i) { next[i] = x[i] + (neighbour_mean(adj, x, i) - x[i]) * w; });
         x.swap(next);
         for_each_vertex(nv, project);
@@ -112,12 +107,18 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
         op = build_cotan_operator(x, triangles, adj);
         energy = energy_of(adj, op, x, scratch);
       }
-      if (constrained) refresh_cache(s);
       backup = x;
       if (gauss_seidel) {
+        // scratch = W x (energy_of computed it for the current x) is kept current as vertices
+        // move: (B x)_i needs only the W x of i's ring, and a move of x_i changes only the W x
+        // of that ring — no two vertices of a distance-2 colour class share a ring vertex.
         for_each_in_colors(colors, [&](uint32_t i) {
-          x[i] -= bilaplacian_row(adj, op, x, i) * (w / op.b_diag[i]);
+          const Vec3f before = x[i];
+          x[i] -= bilaplacian_row_from_wx(adj, op, scratch, i) * (w / op.b_diag[i]);
           if (constrained) project(i);
+          const Vec3f delta = x[i] - before;
+          scratch[i] += delta * op.diag[i];
+          for (uint32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) scratch[adj.neighbors[e]] += delta * op.w[e];
         });
       } else {
         // scratch = W x was computed by energy_of for the current x.

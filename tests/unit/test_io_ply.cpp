@@ -15,25 +15,18 @@
 
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
+#include "support/io_helpers.hpp"
 #include "support/test_support.hpp"
 
 namespace meniscus {
 namespace {
 
+using test::write_file;
+using test::read_file;
+using test::expect_format_error;
+using test::same_bits;
+
 using test::TempDir;
-
-void write_file(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out.write(bytes.data(), std::streamsize(bytes.size()));
-  ASSERT_TRUE(out.good()) << path;
-}
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 void gzip_file(const std::string& path, const std::string& bytes) {
   gzFile gz = gzopen(path.c_str(), "wb");
@@ -58,21 +51,6 @@ struct Encoder {
 };
 
 // Runs `body`, expects a FormatError whose message contains every fragment.
-template <class F>
-void expect_format_error(F&& body, std::initializer_list<std::string> fragments) {
-  try {
-    body();
-    FAIL() << "expected FormatError";
-  } catch (const FormatError& e) {
-    const std::string what = e.what();
-    for (const std::string& f : fragments) EXPECT_NE(what.find(f), std::string::npos) << "'" << f << "' not in: " << what;
-  } catch (const std::exception& e) {
-    FAIL() << "expected FormatError, got: " << e.what();
-  }
-}
-
-bool same_bits(float a, float b) { return std::bit_cast<uint32_t>(a) == std::bit_cast<uint32_t>(b); }
-
 const Attribute& attribute(const std::vector<Attribute>& attributes, const std::string& name) {
   for (const Attribute& a : attributes)
     if (a.name == name) return a;

@@ -14,18 +14,17 @@
 
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
+#include "support/io_helpers.hpp"
 #include "support/test_support.hpp"
 
 namespace meniscus {
 namespace {
 
-using test::TempDir;
+using test::write_file;
+using test::expect_format_error;
+using test::same_bits;
 
-void write_file(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out.write(bytes.data(), std::streamsize(bytes.size()));
-  ASSERT_TRUE(out.good()) << path;
-}
+using test::TempDir;
 
 void gzip_file(const std::string& path, const std::string& bytes) {
   gzFile gz = gzopen(path.c_str(), "wb");
@@ -33,21 +32,6 @@ void gzip_file(const std::string& path, const std::string& bytes) {
   ASSERT_EQ(gzwrite(gz, bytes.data(), unsigned(bytes.size())), int(bytes.size()));
   ASSERT_EQ(gzclose(gz), Z_OK);
 }
-
-template <class F>
-void expect_format_error(F&& body, std::initializer_list<std::string> fragments) {
-  try {
-    body();
-    FAIL() << "expected FormatError";
-  } catch (const FormatError& e) {
-    const std::string what = e.what();
-    for (const std::string& f : fragments) EXPECT_NE(what.find(f), std::string::npos) << "'" << f << "' not in: " << what;
-  } catch (const std::exception& e) {
-    FAIL() << "expected FormatError, got: " << e.what();
-  }
-}
-
-bool same_bits(float a, float b) { return std::bit_cast<uint32_t>(a) == std::bit_cast<uint32_t>(b); }
 
 void expect_positions(const ParticleSet& p, const std::vector<float>& xyz) {
   ASSERT_EQ(p.size() * 3, xyz.size());

@@ -13,10 +13,13 @@
 
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
+#include "support/io_helpers.hpp"
 #include "support/test_support.hpp"
 
 namespace meniscus {
 namespace {
+
+using test::write_file;
 
 using test::TempDir;
 
@@ -29,12 +32,6 @@ std::string xyz_bytes(const std::vector<Vec3f>& points) {
       for (int b = 0; b < 4; ++b) out.push_back(char((bits >> (8 * b)) & 0xffu));
     }
   return out;
-}
-
-void write_file(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out.write(bytes.data(), std::streamsize(bytes.size()));
-  ASSERT_TRUE(out.good());
 }
 
 template <class F>

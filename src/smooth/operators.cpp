@@ -79,7 +79,9 @@ void apply_w(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3
 }
 
 double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx) {
-  return tbb::parallel_reduce(
+  // Deterministic: the energy decides whether a sweep is redone with a smaller ω, so the same
+  // input must give the same sum whatever the thread scheduling.
+  return tbb::parallel_deterministic_reduce(
       tbb::blocked_range<std::size_t>(0, wx.size(), 4096), 0.0,
       [&](const auto& r, double e) {
         for (std::size_t k = r.begin(); k != r.end(); ++k) e += double(length2(wx[k])) / double(op.area[k]);

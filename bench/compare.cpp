@@ -1,0 +1,227 @@
+// meniscus bench — meniscus vs the OpenVDB baseline on the same particles, voxel size and
+// radius: per-stage times, ratios, throughput, memory and mesh quality side by side (issue #4).
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "memory.hpp"
+#include "meniscus/io.hpp"
+#include "meniscus/reconstruct.hpp"
+#include "metrics.hpp"
+#include "openvdb_baseline.hpp"
+#include "scenes.hpp"
+
+using namespace meniscus;
+using namespace meniscus::bench;
+
+namespace {
+
+// One column of the table: a tool + configuration, its stage times and its mesh.
+struct Column {
+  std::string name;
+  std::vector<StageTime> stages;
+  double total = 0;
+  std::size_t peak_delta = 0;
+  MeshQuality quality;
+  // Throughputs (0: not applicable to this column).
+  double voxels_per_s = 0, iterations_per_s = 0;
+  std::size_t field_samples = 0;
+};
+
+Column run_meniscus(const std::string& name, const Scene& scene, const Params& params, int repeat,
+                    std::size_t samples) {
+  Column c;
+  c.name = name;
+  Result best;
+  for (int i = 0; i < repeat; ++i) {
+    const std::size_t base = begin_peak_measurement();
+    Result r = reconstruct(scene.particles, params);
+    const std::size_t peak = peak_delta_bytes(base);
+    if (i == 0 || r.stats.total_seconds() < best.stats.total_seconds()) {
+      best = std::move(r);
+      c.peak_delta = peak;
+    }
+  }
+  c.stages = best.stats.stages;
+  c.total = best.stats.total_seconds();
+  c.quality = measure_quality(best.mesh, scene, samples);
+  const int sweeps = best.params.steps_a + best.params.steps_b + best.params.steps_free;
+  c.field_samples = best.stats.field_blocks * 512;
+  for (const StageTime& s : c.stages) {
+    if (s.name == "field" && s.seconds > 0) c.voxels_per_s = double(c.field_samples) / s.seconds;
+    if (s.name == "smooth" && s.seconds > 0 && sweeps > 0)
+      c.iterations_per_s = double(best.stats.vertices) * sweeps / s.seconds;
+  }
+  return c;
+}
+
+Column run_vdb(const std::string& name, const Scene& scene, const VdbOptions& options, int repeat,
+               std::size_t samples) {
+  Column c;
+  c.name = name;
+  VdbResult best;
+  for (int i = 0; i < repeat; ++i) {
+    VdbResult r = run_openvdb(scene.particles.positions, options);
+    if (i == 0 || r.total_seconds() < best.total_seconds()) best = std::move(r);
+  }
+  c.stages = {{"rasterize", best.rasterize_seconds}, {"filter", best.filter_seconds}, {"mesh", best.mesh_seconds}};
+  c.total = best.total_seconds();
+  c.peak_delta = best.peak_delta_bytes;
+  c.quality = measure_quality(best.mesh, scene, samples);
+  c.field_samples = best.active_voxels;
+  if (best.rasterize_seconds > 0) c.voxels_per_s = double(best.active_voxels) / best.rasterize_seconds;
+  if (best.filter_seconds > 0 && options.filter_passes > 0)
+    c.iterations_per_s = double(best.active_voxels) * options.filter_passes / best.filter_seconds;
+  return c;
+}
+
+double stage_seconds(const Column& c, const std::string& stage) {
+  for (const StageTime& s : c.stages)
+    if (s.name == stage) return s.seconds;
+  return -1;
+}
+
+std::string fmt_time(double s) { return s < 0 ? "-" : fmt::format("{:.3f}", s); }
+std::string fmt_rate(double r) { return r <= 0 ? "-" : fmt::format("{:.3g}", r); }
+
+void print_table(const Scene& scene, const Params& p, const std::vector<Column>& cols) {
+  fmt::print("\n== {}: {} particles, d = {:g}, h = {:g}, r_outer = {:g}, r_inner = {:g}\n", scene.name,
+             scene.particles.size(), p.spacing, p.voxel_size, p.r_outer, p.r_inner);
+  const auto row = [&](const std::string& label, auto&& cell) {
+    std::string line = fmt::format("{:<26}", label);
+    for (const Column& c : cols) line += fmt::format(" {:>17}", cell(c));
+    fmt::print("{}\n", line);
+  };
+  row("", [](const Column& c) { return c.name; });
+  // The union of stage names, in the order they first appear.
+  std::vector<std::string> stages;
+  for (const Column& c : cols)
+    for (const StageTime& s : c.stages)
+      if (std::find(stages.begin(), stages.end(), s.name) == stages.end()) stages.push_back(s.name);
+  for (const std::string& s : stages) row("  " + s + " [s]", [&](const Column& c) { return fmt_time(stage_seconds(c, s)); });
+  row("total [s]", [](const Column& c) { return fmt_time(c.total); });
+  row("peak RSS delta [MB]", [](const Column& c) { return fmt::format("{:.0f}", double(c.peak_delta) / 1e6); });
+  row("particles/s", [&](const Column& c) { return fmt_rate(double(scene.particles.size()) / c.total); });
+  row("voxels/s (field/raster)", [](const Column& c) { return fmt_rate(c.voxels_per_s); });
+  row("iterations/s (smooth/filt)", [](const Column& c) { return fmt_rate(c.iterations_per_s); });
+  row("vertices", [](const Column& c) { return std::to_string(c.quality.vertices); });
+  row("triangles", [](const Column& c) { return std::to_string(c.quality.triangles); });
+  row("components", [](const Column& c) { return std::to_string(c.quality.components); });
+  row("watertight", [](const Column& c) { return std::string(c.quality.watertight ? "yes" : "no"); });
+  row("min valence", [](const Column& c) { return std::to_string(c.quality.min_valence); });
+  row("valence < 5 [%]", [](const Column& c) { return fmt::format("{:.2f}", 100 * c.quality.share_valence_below_5); });
+  row("min angle [deg]", [](const Column& c) { return fmt::format("{:.2f}", c.quality.min_angle_degrees); });
+  row("angles < 10 deg [%]", [](const Column& c) { return fmt::format("{:.2f}", 100 * c.quality.share_angles_below_10); });
+  row("particles outside", [](const Column& c) { return fmt::format("{}/{}", c.quality.outside, c.quality.sampled); });
+  if (scene.has_flat_top)
+    row("top flatness RMS/d", [](const Column& c) {
+      return c.quality.flatness_rms_over_d < 0 ? std::string("-") : fmt::format("{:.4f}", c.quality.flatness_rms_over_d);
+    });
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"meniscus vs OpenVDB (ParticlesToLevelSet + LevelSetFilter + volumeToMesh) on the same particles"};
+  std::string scene_name = "block", file;
+  std::size_t count = 100000, samples = 2000;
+  int repeat = 1, filter_passes = 4;
+  bool json = false;
+  app.add_option("--scene", scene_name, "synthetic scene: block | sphere | splash");
+  app.add_option("--count", count, "particles of the synthetic scene");
+  app.add_option("--file", file, "a particle file instead of a synthetic scene (spacing estimated)");
+  app.add_option("--repeat", repeat, "runs per configuration; the fastest is reported")->check(CLI::PositiveNumber);
+  app.add_option("--filter-passes", filter_passes, "mean-curvature passes of the filtered OpenVDB run");
+  app.add_option("--samples", samples, "particles tested for being outside each mesh");
+  app.add_flag("--json", json, "print JSON instead of the table");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    Scene scene;
+    Params base;
+    if (!file.empty()) {
+      scene.name = std::filesystem::path(file).filename().string();
+      scene.particles.positions = read_particles(file).positions;  // attributes are not benchmarked
+      // Estimated once here, outside the timed runs, so both tools get the same d and
+      // meniscus' "parameters" stage does not charge it the estimation OpenVDB is spared.
+      base.spacing = estimate_spacing(scene.particles);
+      scene.spacing = float(base.spacing);
+    } else {
+      scene = make_scene(scene_name, count);
+      base.spacing = scene.spacing;
+    }
+    const Params p = resolve_params(scene.particles, base);
+
+    Params no_smooth = base;
+    no_smooth.steps_a = no_smooth.steps_b = no_smooth.steps_free = 0;
+    VdbOptions vdb;
+    vdb.voxel_size = p.voxel_size;
+    vdb.radius = p.r_outer;
+    VdbOptions vdb_filtered = vdb;
+    vdb_filtered.filter_passes = filter_passes;
+
+    std::vector<Column> cols;
+    cols.push_back(run_meniscus("meniscus-nosmooth", scene, no_smooth, repeat, samples));
+    cols.push_back(run_meniscus("meniscus-full", scene, base, repeat, samples));
+    cols.push_back(run_vdb("vdb", scene, vdb, repeat, samples));
+    cols.push_back(run_vdb(fmt::format("vdb-filter{}", filter_passes), scene, vdb_filtered, repeat, samples));
+
+    const double vdb_plain = cols[2].total, vdb_filt = cols[3].total;
+    const double ratio_nosmooth = cols[0].total / vdb_plain, ratio_full = cols[1].total / vdb_filt;
+    const double ratio_mem = cols[3].peak_delta ? double(cols[1].peak_delta) / double(cols[3].peak_delta) : 0;
+
+    if (json) {
+      nlohmann::ordered_json j;
+      j["scene"] = scene.name;
+      j["particles"] = scene.particles.size();
+      j["spacing"] = p.spacing;
+      j["voxel_size"] = p.voxel_size;
+      j["r_outer"] = p.r_outer;
+      j["r_inner"] = p.r_inner;
+      j["threads"] = p.threads;
+      for (const Column& c : cols) {
+        nlohmann::ordered_json k;
+        nlohmann::ordered_json st = nlohmann::ordered_json::object();
+        for (const StageTime& s : c.stages) st[s.name] = s.seconds;
+        k["stages"] = st;
+        k["total_seconds"] = c.total;
+        k["peak_rss_delta_bytes"] = c.peak_delta;
+        k["particles_per_s"] = double(scene.particles.size()) / c.total;
+        k["voxels_per_s"] = c.voxels_per_s;
+        k["iterations_per_s"] = c.iterations_per_s;
+        const MeshQuality& q = c.quality;
+        k["quality"] = {{"vertices", q.vertices},
+                        {"triangles", q.triangles},
+                        {"components", q.components},
+                        {"watertight", q.watertight},
+                        {"min_valence", q.min_valence},
+                        {"share_valence_below_5", q.share_valence_below_5},
+                        {"min_angle_degrees", q.min_angle_degrees},
+                        {"share_angles_below_10", q.share_angles_below_10},
+                        {"particles_outside", q.outside},
+                        {"particles_sampled", q.sampled},
+                        {"flatness_rms_over_d", q.flatness_rms_over_d}};
+        j["runs"][c.name] = k;
+      }
+      j["ratios"] = {{"nosmooth_over_vdb", ratio_nosmooth},
+                     {"full_over_vdb_filtered", ratio_full},
+                     {"memory_full_over_vdb_filtered", ratio_mem}};
+      fmt::print("{}\n", j.dump(2));
+    } else {
+      print_table(scene, p, cols);
+      fmt::print("ratio meniscus-nosmooth / vdb        {:.2f}x  (target <= 0.5)\n", ratio_nosmooth);
+      fmt::print("ratio meniscus-full / vdb-filter{}    {:.2f}x  (target <= 1.0)\n", filter_passes, ratio_full);
+      fmt::print("memory meniscus-full / vdb-filter{}   {:.2f}x  (target <= 1.5)\n", filter_passes, ratio_mem);
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "meniscus_bench_compare: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

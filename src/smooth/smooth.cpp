@@ -48,7 +48,7 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
                             const std::function<void(double)>& progress) {
   SmoothReport report;
   const std::size_t nv = x.size();
-  if (nv == 0) return report;
+  if (nv == 0 || o.steps_a + o.steps_b + o.steps_free == 0) return report;  // no sweep: no set-up either
   const Adjacency adj = build_adjacency(nv, triangles);
   const bool gauss_seidel = o.solver == SmoothingSolver::gauss_seidel;
   const int total = o.steps_a + o.steps_b + o.steps_free;

@@ -4,23 +4,22 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
-#include "smooth/adjacency.hpp"
 
 namespace meniscus {
 
 std::vector<Vec3f> vertex_normals(std::span<const Vec3f> x, std::span<const Triangle> triangles) {
-  const Adjacency adj = build_adjacency(x.size(), triangles);
-  std::vector<Vec3f> n(x.size());
-  // Gather per vertex (not scatter per triangle), so threads never write the same normal.
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 2048), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      Vec3f sum{0, 0, 0};
-      for (uint32_t k = adj.tri_offsets[i]; k < adj.tri_offsets[i + 1]; ++k) {
-        const Triangle& t = triangles[adj.tri_ids[k]];
-        sum += cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
-      }
-      n[i] = normalized(sum);
-    }
+  // One serial pass scattering each triangle's (area-weighted) cross product onto its corners:
+  // cheaper than building the vertex → triangle incidence for a parallel gather, and the sums
+  // come out in the same order every time.
+  std::vector<Vec3f> n(x.size(), Vec3f{0, 0, 0});
+  for (const Triangle& t : triangles) {
+    const Vec3f c = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
+    n[t[0]] += c;
+    n[t[1]] += c;
+    n[t[2]] += c;
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n.size(), 4096), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) n[i] = normalized(n[i]);
   });
   return n;
 }

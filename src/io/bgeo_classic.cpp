@@ -341,14 +341,7 @@ void write_bgeo_mesh(const std::string& path, const TriangleMesh& mesh) {
   if (nv > int32_max || mesh.triangles.size() > int32_max)
     throw InvalidParameter(fmt::format("cannot write '{}': {} vertices and {} triangles do not fit bgeo's int32 counts",
                                        path, nv, mesh.triangles.size()));
-  if (!mesh.normals.empty() && mesh.normals.size() != nv)
-    throw InvalidParameter(fmt::format("cannot write '{}': {} normals for {} vertices", path, mesh.normals.size(), nv));
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
-    for (const uint32_t v : mesh.triangles[t])
-      if (v >= nv)
-        throw InvalidParameter(fmt::format("cannot write '{}': triangle {} refers to vertex {}, but the mesh has {} "
-                                           "vertices",
-                                           path, t, v, nv));
+  check_mesh_for_writing(path, mesh, "bgeo");
   const std::vector<OutputAttribute> attributes = output_attributes(path, mesh);
   if (attributes.size() > int32_max)
     throw InvalidParameter(fmt::format("cannot write '{}': too many attributes", path));

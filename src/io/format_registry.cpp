@@ -59,6 +59,29 @@ const std::vector<MeshWriter>& mesh_writers() {
   return table;
 }
 
+void check_mesh_for_writing(const std::string& path, const TriangleMesh& mesh, std::string_view format) {
+  const std::size_t nv = mesh.vertices.size();
+  if (!mesh.normals.empty() && mesh.normals.size() != nv)
+    throw InvalidParameter(fmt::format("cannot write {} '{}': {} normals for {} vertices", format, path,
+                                       mesh.normals.size(), nv));
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (const uint32_t v : mesh.triangles[t])
+      if (v >= nv)
+        throw InvalidParameter(fmt::format("cannot write {} '{}': triangle {} refers to vertex {}, but the mesh has "
+                                           "{} vertices",
+                                           format, path, t, v, nv));
+  for (const Attribute& a : mesh.attributes) {
+    if (a.components < 1)
+      throw InvalidParameter(fmt::format("cannot write {} '{}': attribute '{}' has {} components", format, path,
+                                         a.name, a.components));
+    if (a.values.size() != nv * std::size_t(a.components))
+      throw InvalidParameter(fmt::format("cannot write {} '{}': attribute '{}' has {} values, expected {} ({} "
+                                         "vertices × {})",
+                                         format, path, a.name, a.values.size(), nv * std::size_t(a.components), nv,
+                                         a.components));
+  }
+}
+
 std::string format_extension(const std::string& path) {
   std::filesystem::path p(path);
   auto lower = [](std::string s) {

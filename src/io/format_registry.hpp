@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "io/file_bytes.hpp"
@@ -41,6 +42,11 @@ struct MeshWriter {
   std::vector<std::string> extensions;
   void (*write)(const std::string& path, const TriangleMesh& mesh) = nullptr;
 };
+
+/// Checks what every mesh writer needs before it creates a file: triangle indices below the
+/// vertex count, normals empty or one per vertex, attributes with ≥ 1 component and one element
+/// per vertex. Throws InvalidParameter naming `path`, `format` and the first problem.
+void check_mesh_for_writing(const std::string& path, const TriangleMesh& mesh, std::string_view format);
 
 /// The tables, in the order formats are tried. Adding a format is one entry here plus its
 /// reader/writer file: the table is explicit rather than self-registering because static

@@ -8,11 +8,6 @@
 
 namespace meniscus::io {
 
-/// Checks what every mesh writer needs before it creates a file: triangle indices below the
-/// vertex count, normals empty or one per vertex, attributes with ≥ 1 component and one element
-/// per vertex. Throws InvalidParameter naming `path`, `format` and the first problem.
-void check_mesh_for_writing(const std::string& path, const TriangleMesh& mesh, std::string_view format);
-
 /// Text OBJ: `v x y z` (shortest round-trip float text), `vn` per vertex when the mesh has
 /// normals, `f a//a b//b c//c` (1-based; `f a b c` without normals). OBJ has no per-vertex
 /// attribute channel that common readers agree on, so attributes (velocity, color …) are not

@@ -779,14 +779,7 @@ void write_ply_mesh(const std::string& path, const TriangleMesh& mesh) {
   const std::size_t nv = mesh.vertices.size();
   if (nv > std::numeric_limits<uint32_t>::max())
     throw InvalidParameter(fmt::format("cannot write '{}': {} vertices do not fit PLY's uint vertex indices", path, nv));
-  if (!mesh.normals.empty() && mesh.normals.size() != nv)
-    throw InvalidParameter(fmt::format("cannot write '{}': {} normals for {} vertices", path, mesh.normals.size(), nv));
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
-    for (const uint32_t v : mesh.triangles[t])
-      if (v >= nv)
-        throw InvalidParameter(fmt::format("cannot write '{}': triangle {} refers to vertex {}, but the mesh has {} "
-                                           "vertices",
-                                           path, t, v, nv));
+  check_mesh_for_writing(path, mesh, "PLY");
   const std::vector<OutputProperty> properties = output_properties(mesh);
   // Integer attributes must survive the int conversion; refuse before anything is written.
   for (const OutputProperty& p : properties) {

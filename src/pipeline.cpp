@@ -21,6 +21,7 @@
 #include "mesh/voids.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/reconstruct.hpp"
+#include "mesh/vertex_order.hpp"
 #include "smooth/smooth.hpp"
 #include "transfer/attribute_transfer.hpp"
 #include "transfer/normals.hpp"
@@ -225,6 +226,9 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
   mesh = std::move(extracted.mesh);
   if (!p.keep_voids)
     stats.removed_voids = timer.run("voids", [&] { return remove_small_voids(mesh, 8 * d * d * d); });
+  // The extraction numbers vertices in edge-key (row-major) order; the sweeps run 2-4x faster
+  // on a Z-ordered mesh, where a vertex's ring and particle list sit near it in memory.
+  timer.run("reorder", [&] { reorder_vertices_spatially(mesh); });
 
   timer.run("smooth", [&] {
     SmoothOptions o;

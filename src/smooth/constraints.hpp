@@ -22,25 +22,41 @@ Vec3f project_vertex(const ShellConstraint& c, Vec3f x);
 
 /// Per-vertex lists of the particles near each vertex, so that the projection in the smoothing
 /// sweeps (where vertices move little from one sweep to the next) scans a short contiguous
-/// list instead of querying the hash grid. Exact: a vertex that has moved too far from where its
-/// list was built refreshes its own list, and a nearest candidate that cannot be certified falls
-/// back to the grid. Each vertex touches only its own list, so vertices may be projected in
-/// parallel as long as no vertex is projected by two threads at once.
+/// list instead of querying the hash grid. Each list holds the (at most kCapacity) particles
+/// nearest to the vertex's anchor (its position when the list was made), sorted by distance,
+/// and the radius `reach` within which it holds every particle. Exact: the nearest particle to
+/// a point y with |y − anchor| = m is found by scanning the list until the anchor distance
+/// exceeds (best distance + m), and is certified when its distance is ≤ reach − m; otherwise the
+/// list is rebuilt at y (and the grid answers if even that cannot certify). Each vertex touches
+/// only its own list, so vertices may be projected in parallel as long as no vertex is
+/// projected by two threads at once.
 class NeighbourCache {
  public:
-  static constexpr int kCapacity = 32;
-  /// Lists, for every vertex, the particles within 1.5·r_outer of its current position.
+  static constexpr int kCapacity = 16;
+  /// Lists, for every vertex, the particles nearest to its current position.
   void build(const ShellConstraint& c, std::span<const Vec3f> x);
   /// project_vertex(c, x) for vertex i, using (and if needed refreshing) its list.
   Vec3f project(const ShellConstraint& c, uint32_t i, Vec3f x);
-  std::size_t memory_bytes() const { return anchors_.size() * (sizeof(Vec3f) + 1) + ids_.size() * 4; }
+  /// Hints the cache to load vertex i's list (a few vertices before projecting it).
+  void prefetch(uint32_t i) const {
+    __builtin_prefetch(&entries_[i]);
+    __builtin_prefetch(ids_.data() + std::size_t(i) * kCapacity);
+  }
+  std::size_t memory_bytes() const {
+    return entries_.size() * sizeof(Entry) + ids_.size() * sizeof(uint32_t);
+  }
 
  private:
+  struct Entry {
+    Vec3f anchor;
+    float reach = 0;   ///< every particle within this distance of the anchor is listed
+    uint32_t count = 0;
+  };
   void refresh(const ShellConstraint& c, uint32_t i, Vec3f y);
+  HashGrid::Nearest scan(const ShellConstraint& c, uint32_t i, Vec3f y, float moved) const;
   float margin_ = 0;
-  std::vector<Vec3f> anchors_;
-  std::vector<uint8_t> counts_;  ///< list length, or kOverflow when more than kCapacity particles
-  std::vector<uint32_t> ids_;    ///< kCapacity slots per vertex
+  std::vector<Entry> entries_;
+  std::vector<uint32_t> ids_;  ///< kCapacity slots per vertex, nearest to the anchor first
 };
 
 /// Projects every vertex in parallel.

@@ -17,12 +17,19 @@ void for_each_vertex(std::size_t n, F&& f) {
   });
 }
 
-template <class F>
-void for_each_in_colors(const Coloring& coloring, F&& f) {
+/// Runs f on every vertex, one colour class after another (in parallel within a class), and
+/// calls prefetch a few vertices ahead: a class is scattered over the whole vertex range, so the
+/// hardware prefetcher cannot guess the next vertex's per-vertex data.
+template <class F, class P>
+void for_each_in_colors(const Coloring& coloring, F&& f, P&& prefetch) {
+  constexpr uint32_t kAhead = 8;
   for (std::size_t c = 0; c < coloring.colors(); ++c) {
     const uint32_t b = coloring.offsets[c], e = coloring.offsets[c + 1];
     tbb::parallel_for(tbb::blocked_range<uint32_t>(b, e, 512), [&](const auto& r) {
-      for (uint32_t k = r.begin(); k != r.end(); ++k) f(coloring.vertices[k]);
+      for (uint32_t k = r.begin(); k != r.end(); ++k) {
+        if (k + kAhead < r.end()) prefetch(coloring.vertices[k + kAhead]);
+        f(coloring.vertices[k]);
+      }
     });
   }
 }
@@ -64,6 +71,10 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
   auto project = [&](uint32_t i) {
     if (constraint) x[i] = cache.project(*constraint, i, x[i]);
   };
+  auto prefetch = [&](uint32_t i) {
+    if (constraint) cache.prefetch(i);
+    __builtin_prefetch(&x[i]);
+  };
 
   std::vector<Vec3f> next(nv), scratch;
 
@@ -77,7 +88,7 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
         for_each_in_colors(colors, [&](uint32_t i) {
           x[i] = x[i] + (neighbour_mean(adj, x, i) - x[i]) * w;
           project(i);
-        });
+        }, prefetch);
       }
     } else {
       for (int s = 0; s < o.steps_a; ++s, tick()) {
@@ -119,6 +130,10 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
           const Vec3f delta = x[i] - before;
           scratch[i] += delta * op.diag[i];
           for (uint32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) scratch[adj.neighbors[e]] += delta * op.w[e];
+        }, [&](uint32_t i) {
+          prefetch(i);
+          __builtin_prefetch(&scratch[i]);
+          __builtin_prefetch(&adj.neighbors[adj.offsets[i]]);
         });
       } else {
         // scratch = W x was computed by energy_of for the current x.

@@ -41,5 +41,39 @@ TEST(Constraint, ProjectedVerticesSatisfyTheShellOfTheirNearestParticle) {
   EXPECT_EQ(violations, 0u);
 }
 
+// The per-vertex lists must give exactly the grid's answer however the vertices wander: small
+// steps (the early exit and the certification by reach − moved), large jumps (refresh), dense
+// clusters with more than kCapacity particles in range (reach shortened to the first left out)
+// and vertices far from every particle (grid fallback).
+TEST(Constraint, NeighbourCacheProjectsExactlyAsTheGrid) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<Vec3f> particles;
+  for (int i = 0; i < 600; ++i) particles.push_back({u(rng), u(rng), u(rng)});
+  for (int i = 0; i < 200; ++i) particles.push_back(Vec3f{0.5f, 0.5f, 0.5f} + Vec3f{u(rng), u(rng), u(rng)} * 0.1f);
+  const float r_in = 0.05f, r_out = 0.1f;
+  const HashGrid grid(particles, 2 * r_out);
+  const ShellConstraint c{&grid, r_in, r_out};
+  std::uniform_real_distribution<float> w(-0.2f, 1.2f);
+  std::vector<Vec3f> x(2000);
+  for (auto& v : x) v = {w(rng), w(rng), w(rng)};
+  NeighbourCache cache;
+  cache.build(c, x);
+  std::normal_distribution<float> step(0.0f, 1.0f);
+  std::size_t compared = 0, mismatches = 0;
+  for (int sweep = 0; sweep < 30; ++sweep) {
+    const float size = sweep % 10 == 9 ? 0.3f : 0.004f * float(1 + sweep % 3);
+    for (uint32_t i = 0; i < x.size(); ++i) {
+      const Vec3f y = x[i] + Vec3f{step(rng), step(rng), step(rng)} * size;
+      const Vec3f expected = project_vertex(c, y);
+      x[i] = cache.project(c, i, y);
+      ++compared;
+      if (!(x[i] == expected)) ++mismatches;
+    }
+  }
+  EXPECT_EQ(compared, 60000u);
+  EXPECT_EQ(mismatches, 0u);
+}
+
 }  // namespace
 }  // namespace meniscus

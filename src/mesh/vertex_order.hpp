@@ -1,0 +1,17 @@
+// meniscus — spatial (Morton / Z-order) renumbering of a mesh's vertices and triangles, so that
+// the smoothing sweeps, whose cost is dominated by memory latency, read neighbouring vertices,
+// their particle lists and their matrix rows from nearby addresses (the same reason the hash grid
+// sorts particles by cell).
+#pragma once
+
+#include "meniscus/mesh.hpp"
+
+namespace meniscus {
+
+/// Renumbers the vertices in the Z-order of their positions on a 1024³ grid over the bounding
+/// box (ties keep the old order), and sorts the triangles by their smallest new vertex index.
+/// Geometry, orientation and connectivity are unchanged; normals and attributes, when present,
+/// move with their vertices. Deterministic and independent of the thread count.
+void reorder_vertices_spatially(TriangleMesh& mesh);
+
+}  // namespace meniscus

@@ -21,6 +21,7 @@
 #include "mesh/voids.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/reconstruct.hpp"
+#include "extract/tile_table.hpp"
 #include "mesh/vertex_order.hpp"
 #include "smooth/smooth.hpp"
 #include "transfer/attribute_transfer.hpp"
@@ -86,6 +87,32 @@ void check_particles(const ParticleSet& particles) {
 }
 
 /// Refuses, before allocating, a field that would not fit in `max_bytes`.
+/// The longest lattice edge the extractor interpolates along: the A15 tile's tetrahedron edges
+/// (from its table; √5/4 of the tile period 2h), the cube's axis edges, or the Kuhn tetrahedra's
+/// cube diagonals.
+double longest_extraction_edge(Extractor extract, double h) {
+  switch (extract) {
+    case Extractor::tiles: {
+      int longest2 = 0;  // in quarters of the tile period, squared
+      for (const auto& tet : kA15Tets)
+        for (int i = 0; i < 4; ++i)
+          for (int j = i + 1; j < 4; ++j) {
+            int l2 = 0;
+            const int ds[3] = {tet[j].dx - tet[i].dx, tet[j].dy - tet[i].dy, tet[j].dz - tet[i].dz};
+            for (int ax = 0; ax < 3; ++ax) {
+              const int q = 4 * ds[ax] + kA15SampleQuarters[tet[j].s][ax] - kA15SampleQuarters[tet[i].s][ax];
+              l2 += q * q;
+            }
+            longest2 = std::max(longest2, l2);
+          }
+      return std::sqrt(double(longest2)) / 4 * (2 * h);
+    }
+    case Extractor::cubes: return h;
+    case Extractor::tetrahedra: return h * std::sqrt(3.0);
+  }
+  return 2 * h;
+}
+
 std::vector<uint64_t> checked_band_blocks(const HashGrid& grid, const SampleLattice& lattice, float band,
                                           double max_bytes, const Params& p) {
   // Upper bound on the keys band_blocks() would list (each occupied hash cell's box expanded by
@@ -211,7 +238,11 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
   SampleLattice lattice;
   lattice.kind = p.extract == Extractor::tiles ? SampleLattice::Kind::a15 : SampleLattice::Kind::cubic;
   lattice.cell_size = float(p.extract == Extractor::tiles ? 2 * h : h);
-  const float band = float(p.r_outer + 2 * h);
+  // The field must be exact wherever an extraction edge crosses φ = r_outer: both ends of such an
+  // edge are within r_outer + (edge length) of a particle, so the band needs only that much
+  // (beyond it every sample reads "outside"). Half the particle-sample updates of the former
+  // r_outer + 2h band on tiles, and fewer blocks.
+  const float band = float(p.r_outer + 1.01 * longest_extraction_edge(p.extract, h));
   const double max_bytes = p.max_memory_gb * 1e9;
 
   ExtractResult extracted = [&] {
@@ -228,7 +259,7 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
     stats.removed_voids = timer.run("voids", [&] { return remove_small_voids(mesh, 8 * d * d * d); });
   // The extraction numbers vertices in edge-key (row-major) order; the sweeps run 2-4x faster
   // on a Z-ordered mesh, where a vertex's ring and particle list sit near it in memory.
-  timer.run("reorder", [&] { reorder_vertices_spatially(mesh); });
+  if (p.steps_a + p.steps_b + p.steps_free > 0) timer.run("reorder", [&] { reorder_vertices_spatially(mesh); });
 
   timer.run("smooth", [&] {
     SmoothOptions o;

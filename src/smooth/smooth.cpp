@@ -76,7 +76,7 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
     __builtin_prefetch(&x[i]);
   };
 
-  std::vector<Vec3f> next(nv), scratch;
+  std::vector<Vec3f> next(gauss_seidel ? 0 : nv), scratch;  // next: the Jacobi iterate only
 
   // --- A: constrained graph-Laplacian sweeps ---------------------------------------------------
   if (o.steps_a > 0) {

@@ -82,7 +82,12 @@ SparseField distance_field(const HashGrid& grid, const SampleLattice& lattice, f
                   for (int32_t y = lo[1]; y <= hi[1]; ++y) {
                     const float dy = (float(origin.y + y) + off.y) * a - p.y;
                     const float dyz = dy * dy + dz * dz;
-                    for (int32_t x = lo[0]; x <= hi[0]; ++x) {
+                    if (dyz > band2) continue;
+                    // Only the row's samples inside the band sphere (half the box's volume).
+                    const float half = std::sqrt(band2 - dyz);
+                    const int32_t x0 = std::max(int32_t(std::ceil((p.x - half) * inv_a - off.x)) - origin.x, lo[0]);
+                    const int32_t x1 = std::min(int32_t(std::floor((p.x + half) * inv_a - off.x)) - origin.x, hi[0]);
+                    for (int32_t x = x0; x <= x1; ++x) {
                       const float dx = (float(origin.x + x) + off.x) * a - p.x;
                       float& slot = d2[std::size_t(((z * n + y) * n + x) * spc + s)];
                       slot = std::min(slot, dx * dx + dyz);

@@ -15,10 +15,12 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "cuda/pipeline_cuda.hpp"
 #include "extract/extract.hpp"
 #include "field/distance_field.hpp"
 #include "grid/hash_grid.hpp"
 #include "mesh/voids.hpp"
+#include "meniscus/backend.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "smooth/smooth.hpp"
@@ -202,6 +204,31 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
     stats.warnings.push_back(
         fmt::format("erode {:g} exceeds half a voxel ({:g}); large erosion can self-intersect", p.erode, h / 2));
 
+  // Backend: cuda when asked (refused without a device) or, for auto, when a device is there.
+  if (p.backend != Backend::cpu) {
+    std::string why;
+    const bool have_device = !cuda_devices(&why).empty();
+    if (p.backend == Backend::cuda && !have_device)
+      throw ResourceError(fmt::format("--backend cuda: no CUDA backend available ({}); use --backend cpu or auto", why));
+    if (have_device) {
+      const std::size_t stages_before = stats.stages.size();
+      try {
+        cuda::reconstruct(particles, p, stats, result.mesh, progress);
+        stats.backend = "cuda";
+        stats.peak_memory_bytes = peak_rss_bytes();
+        return result;
+      } catch (const ResourceError& e) {
+        if (p.backend == Backend::cuda) throw;
+        stats.stages.resize(stages_before);
+        result.mesh = {};
+        stats.warnings.push_back(fmt::format("CUDA backend failed, running on the CPU instead: {}", e.what()));
+      }
+    } else if (cuda_built()) {
+      stats.warnings.push_back(fmt::format("backend auto: {}; running on the CPU", why));
+    }
+  }
+  stats.backend = "cpu";
+
   const float r_outer = float(p.r_outer), r_inner = float(p.r_inner);
   // Cells of 2·r_outer: a nearest-particle query for a vertex near the surface then touches
   // about 8 cells of a few particles each, far fewer hash lookups than with r_outer cells.
@@ -271,6 +298,7 @@ std::string stats_to_json(const Result& result) {
   j["removed_voids"] = s.removed_voids;
   j["flipped_triangles"] = s.flipped_triangles;
   j["threads"] = s.threads;
+  j["backend"] = s.backend;
   j["peak_memory_bytes"] = s.peak_memory_bytes;
   j["total_seconds"] = s.total_seconds();
   nlohmann::ordered_json stages = nlohmann::ordered_json::object();
@@ -295,6 +323,7 @@ std::string stats_to_json(const Result& result) {
   q["transfer"] = p.transfer;
   q["transfer_radius"] = p.transfer_radius;
   q["threads"] = p.threads;
+  q["backend"] = to_string(p.backend);
   q["max_memory_gb"] = p.max_memory_gb;
   j["parameters"] = q;
   j["warnings"] = s.warnings;

@@ -32,6 +32,22 @@ SmoothingSolver parse_solver(const std::string& name) {
   throw InvalidParameter(fmt::format("solver: unknown solver '{}' (expected jacobi or gauss-seidel)", name));
 }
 
+const char* to_string(Backend b) {
+  switch (b) {
+    case Backend::automatic: return "auto";
+    case Backend::cpu: return "cpu";
+    case Backend::cuda: return "cuda";
+  }
+  return "?";
+}
+
+Backend parse_backend(const std::string& name) {
+  if (name == "auto") return Backend::automatic;
+  if (name == "cpu") return Backend::cpu;
+  if (name == "cuda") return Backend::cuda;
+  throw InvalidParameter(fmt::format("backend: unknown backend '{}' (expected auto, cpu or cuda)", name));
+}
+
 namespace {
 void require(bool ok, const char* name, double value, const char* expectation) {
   if (!ok) throw InvalidParameter(fmt::format("{} = {:g}: {}", name, value, expectation));

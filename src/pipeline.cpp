@@ -15,13 +15,15 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "cuda/pipeline_cuda.hpp"
 #include "extract/extract.hpp"
 #include "field/distance_field.hpp"
 #include "grid/hash_grid.hpp"
 #include "mesh/voids.hpp"
+#include "meniscus/backend.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/reconstruct.hpp"
-#include "extract/tile_table.hpp"
+#include "extract/field_band.hpp"
 #include "mesh/vertex_order.hpp"
 #include "smooth/smooth.hpp"
 #include "transfer/attribute_transfer.hpp"
@@ -87,32 +89,6 @@ void check_particles(const ParticleSet& particles) {
 }
 
 /// Refuses, before allocating, a field that would not fit in `max_bytes`.
-/// The longest lattice edge the extractor interpolates along: the A15 tile's tetrahedron edges
-/// (from its table; √5/4 of the tile period 2h), the cube's axis edges, or the Kuhn tetrahedra's
-/// cube diagonals.
-double longest_extraction_edge(Extractor extract, double h) {
-  switch (extract) {
-    case Extractor::tiles: {
-      int longest2 = 0;  // in quarters of the tile period, squared
-      for (const auto& tet : kA15Tets)
-        for (int i = 0; i < 4; ++i)
-          for (int j = i + 1; j < 4; ++j) {
-            int l2 = 0;
-            const int ds[3] = {tet[j].dx - tet[i].dx, tet[j].dy - tet[i].dy, tet[j].dz - tet[i].dz};
-            for (int ax = 0; ax < 3; ++ax) {
-              const int q = 4 * ds[ax] + kA15SampleQuarters[tet[j].s][ax] - kA15SampleQuarters[tet[i].s][ax];
-              l2 += q * q;
-            }
-            longest2 = std::max(longest2, l2);
-          }
-      return std::sqrt(double(longest2)) / 4 * (2 * h);
-    }
-    case Extractor::cubes: return h;
-    case Extractor::tetrahedra: return h * std::sqrt(3.0);
-  }
-  return 2 * h;
-}
-
 std::vector<uint64_t> checked_band_blocks(const HashGrid& grid, const SampleLattice& lattice, float band,
                                           double max_bytes, const Params& p) {
   // Upper bound on the keys band_blocks() would list (each occupied hash cell's box expanded by
@@ -230,6 +206,31 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
     stats.warnings.push_back(
         fmt::format("erode {:g} exceeds half a voxel ({:g}); large erosion can self-intersect", p.erode, h / 2));
 
+  // Backend: cuda when asked (refused without a device) or, for auto, when a device is there.
+  if (p.backend != Backend::cpu) {
+    std::string why;
+    const bool have_device = !cuda_devices(&why).empty();
+    if (p.backend == Backend::cuda && !have_device)
+      throw ResourceError(fmt::format("--backend cuda: no CUDA backend available ({}); use --backend cpu or auto", why));
+    if (have_device) {
+      const std::size_t stages_before = stats.stages.size();
+      try {
+        cuda::reconstruct(particles, p, stats, result.mesh, progress);
+        stats.backend = "cuda";
+        stats.peak_memory_bytes = peak_rss_bytes();
+        return result;
+      } catch (const ResourceError& e) {
+        if (p.backend == Backend::cuda) throw;
+        stats.stages.resize(stages_before);
+        result.mesh = {};
+        stats.warnings.push_back(fmt::format("CUDA backend failed, running on the CPU instead: {}", e.what()));
+      }
+    } else if (cuda_built()) {
+      stats.warnings.push_back(fmt::format("backend auto: {}; running on the CPU", why));
+    }
+  }
+  stats.backend = "cpu";
+
   const float r_outer = float(p.r_outer), r_inner = float(p.r_inner);
   // Cells of 2·r_outer: a nearest-particle query for a vertex near the surface then touches
   // about 8 cells of a few particles each, far fewer hash lookups than with r_outer cells.
@@ -238,11 +239,7 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
   SampleLattice lattice;
   lattice.kind = p.extract == Extractor::tiles ? SampleLattice::Kind::a15 : SampleLattice::Kind::cubic;
   lattice.cell_size = float(p.extract == Extractor::tiles ? 2 * h : h);
-  // The field must be exact wherever an extraction edge crosses φ = r_outer: both ends of such an
-  // edge are within r_outer + (edge length) of a particle, so the band needs only that much
-  // (beyond it every sample reads "outside"). Half the particle-sample updates of the former
-  // r_outer + 2h band on tiles, and fewer blocks.
-  const float band = float(p.r_outer + 1.01 * longest_extraction_edge(p.extract, h));
+  const float band = field_band(p);
   const double max_bytes = p.max_memory_gb * 1e9;
 
   ExtractResult extracted = [&] {
@@ -306,6 +303,7 @@ std::string stats_to_json(const Result& result) {
   j["removed_voids"] = s.removed_voids;
   j["flipped_triangles"] = s.flipped_triangles;
   j["threads"] = s.threads;
+  j["backend"] = s.backend;
   j["peak_memory_bytes"] = s.peak_memory_bytes;
   j["total_seconds"] = s.total_seconds();
   nlohmann::ordered_json stages = nlohmann::ordered_json::object();
@@ -330,6 +328,7 @@ std::string stats_to_json(const Result& result) {
   q["transfer"] = p.transfer;
   q["transfer_radius"] = p.transfer_radius;
   q["threads"] = p.threads;
+  q["backend"] = to_string(p.backend);
   q["max_memory_gb"] = p.max_memory_gb;
   j["parameters"] = q;
   j["warnings"] = s.warnings;

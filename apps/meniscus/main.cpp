@@ -17,6 +17,7 @@
 
 #include "field/vdb_export.hpp"
 #include "io/atomic_file.hpp"
+#include "meniscus/backend.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
 #include "meniscus/quality.hpp"
@@ -34,6 +35,7 @@ constexpr int kExitUsage = 2;
 
 struct SurfaceArgs {
   std::string input, output, stats_path, preview_path, extract = "tiles", solver = "gauss-seidel", up = "z";
+  std::string backend = "auto";
   std::string frames, field_path;
   std::vector<std::string> columns;
   int jobs = 1;
@@ -76,6 +78,8 @@ void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
       ->delimiter(',');
   cmd.add_option("--transfer-radius", p.transfer_radius, "radius of the attribute transfer kernel (default 2 d)")
       ->check(CLI::PositiveNumber);
+  cmd.add_option("--backend", a.backend, "where to run: auto (cuda when a device is there), cpu, cuda")
+      ->capture_default_str();
   cmd.add_option("--threads", p.threads, "worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
   cmd.add_option("--max-memory", p.max_memory_gb, "refuse jobs estimated above this many GB (default 90 % of RAM)")
       ->check(CLI::PositiveNumber);
@@ -167,8 +171,10 @@ void print_summary(const SurfaceArgs& a, const FrameFiles& f, const Result& resu
   const Stats& s = result.stats;
   std::string stages;
   for (const StageTime& t : s.stages) stages += fmt::format("{}{} {:.3f}s", stages.empty() ? "" : ", ", t.name, t.seconds);
-  fmt::print(stderr, "{} particles → {} vertices, {} triangles in {:.3f}s on {} threads, peak memory {:.0f} MB\n",
-             s.particles, s.vertices, s.triangles, s.total_seconds(), s.threads, double(s.peak_memory_bytes) / 1e6);
+  fmt::print(stderr, "{} particles → {} vertices, {} triangles in {:.3f}s on {}, peak memory {:.0f} MB\n",
+             s.particles, s.vertices, s.triangles, s.total_seconds(),
+             s.backend == "cuda" ? std::string("the CUDA device") : fmt::format("{} threads", s.threads),
+             double(s.peak_memory_bytes) / 1e6);
   fmt::print(stderr, "  {}\n", stages);
   fmt::print(stderr, "wrote {}{}{}\n", f.output, f.preview.empty() ? "" : ", " + f.preview, f.stats.empty() ? "" : ", " + f.stats);
 }
@@ -241,6 +247,7 @@ int run_sequence(const SurfaceArgs& a, const FramePattern& in) {
 int run_surface(SurfaceArgs& a) {
   a.params.extract = parse_extractor(a.extract);
   a.params.solver = parse_solver(a.solver);
+  a.params.backend = parse_backend(a.backend);
   a.params.validate();
   check_output_format(a.output);  // refuse an unknown format before any work is done
   if (!a.field_path.empty() && !has_openvdb())
@@ -335,7 +342,12 @@ int run_inspect(const InspectArgs& a) {
 int run_info() {
   fmt::print("meniscus {}\n", version());
   fmt::print("backends: cpu (oneTBB, {} threads)\n", tbb::info::default_concurrency());
-  fmt::print("cuda: not built\n");
+  std::string why_no_cuda;
+  const std::vector<CudaDeviceInfo> devices = cuda_devices(&why_no_cuda);
+  if (devices.empty()) fmt::print("cuda: none ({})\n", why_no_cuda);
+  for (const CudaDeviceInfo& d : devices)
+    fmt::print("cuda: device {}: {} (compute capability {}.{}, {:.1f} GB, {:.1f} GB free)\n", d.index, d.name, d.major,
+               d.minor, double(d.total_memory) / 1e9, double(d.free_memory) / 1e9);
   fmt::print("openvdb: {}\n", has_openvdb() ? "yes (--save-field writes .vdb level sets)" : "no");
   fmt::print("particle formats: {}\n", fmt::join(particle_formats(), " "));
   fmt::print("mesh formats: {}\n", fmt::join(mesh_formats(), " "));

@@ -35,6 +35,21 @@ class ResourceError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// A CUDA runtime or library call failed; `what()` names the call's file and line and the
+/// CUDA error string. Thrown by the CUDA backend (never exit()); derived from ResourceError
+/// because the usual causes are an absent, busy or too small device.
+class CudaError : public ResourceError {
+ public:
+  CudaError(const std::string& file, int line, const std::string& message)
+      : ResourceError(file + ":" + std::to_string(line) + ": CUDA error: " + message), file_(file), line_(line) {}
+  const std::string& file() const noexcept { return file_; }
+  int line() const noexcept { return line_; }
+
+ private:
+  std::string file_;
+  int line_ = 0;
+};
+
 /// An input/output operation failed (cannot open, cannot write, disk full …).
 class IoError : public std::runtime_error {
  public:

@@ -10,6 +10,9 @@ namespace meniscus {
 
 enum class Extractor { tiles, cubes, tetrahedra };
 enum class SmoothingSolver { jacobi, gauss_seidel };
+/// Where the pipeline runs: `automatic` uses the CUDA backend when it is built and a device is
+/// there (else the CPU, with a warning in Stats when CUDA was built but no device is usable).
+enum class Backend { automatic, cpu, cuda };
 
 const char* to_string(Extractor e);
 const char* to_string(SmoothingSolver s);
@@ -17,6 +20,9 @@ const char* to_string(SmoothingSolver s);
 Extractor parse_extractor(const std::string& name);
 /// Parses "jacobi" | "gauss-seidel"; throws InvalidParameter otherwise.
 SmoothingSolver parse_solver(const std::string& name);
+const char* to_string(Backend b);
+/// Parses "auto" | "cpu" | "cuda"; throws InvalidParameter otherwise.
+Backend parse_backend(const std::string& name);
 
 struct Params {
   // --- geometry -------------------------------------------------------------------------------
@@ -44,6 +50,7 @@ struct Params {
   double transfer_radius = 0;          ///< 0: 2 d
 
   // --- execution ------------------------------------------------------------------------------
+  Backend backend = Backend::automatic;  ///< cpu, cuda, or auto (cuda when a device is there)
   int threads = 0;                     ///< 0: all hardware threads
   double max_memory_gb = 0;            ///< refuse jobs estimated above this; 0: 90 % of RAM
 

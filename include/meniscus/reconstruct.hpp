@@ -28,6 +28,7 @@ struct Stats {
   std::size_t flipped_triangles = 0;   ///< triangles whose normal reversed during erosion
   std::size_t peak_memory_bytes = 0;   ///< peak resident set size of the process
   int threads = 0;
+  std::string backend = "cpu";         ///< the backend that ran the stages: "cpu" or "cuda"
   bool spacing_estimated = false;
   std::vector<StageTime> stages;       ///< in pipeline order
   std::vector<std::string> warnings;

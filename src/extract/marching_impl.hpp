@@ -40,19 +40,40 @@ MENISCUS_HD constexpr TileVertexLookup make_tile_vertex_lookup(int stride_y, int
 /// Marching Tiles: the 46 A15 tetrahedra owned by one cell, `mask` pointing at the cell's own
 /// mask in a layout described by `lookup`. The caller skips cells whose neighbourhood is all
 /// inside or all outside; the kernel is still correct for them (0).
-MENISCUS_HD inline uint32_t march_tile_cell(const uint8_t* mask, const TileVertexLookup& lookup, uint64_t cell_key,
-                                            uint64_t* out) {
+/// The tables the kernels read, as one struct: the CPU passes the constexpr tables of the headers,
+/// the CUDA backend a copy in device memory (device code cannot index host constexpr arrays).
+struct MarchingTables {
+  TetCaseTable tet_cases;
+  TileEdgeTable<kA15TetCount> a15_edges;
+  TileEdgeTable<kKuhnTetCount> kuhn_edges;
+  CubeCaseTable cube_cases;
+  uint64_t cube_edge_deltas[12];
+  LatticeSample kuhn_tets[kKuhnTetCount][4];
+};
+
+/// The tables of the headers, gathered (host side; the CUDA backend copies this to the device).
+inline MarchingTables host_marching_tables() {
+  MarchingTables t{kTetCases, kA15EdgeTable, kKuhnEdgeTable, kCubeCases, {}, {}};
+  for (int e = 0; e < 12; ++e) t.cube_edge_deltas[e] = kCubeEdgeKeyDeltas.v[e];
+  for (int k = 0; k < kKuhnTetCount; ++k)
+    for (int v = 0; v < 4; ++v) t.kuhn_tets[k][v] = kKuhnTets[k][v];
+  return t;
+}
+
+MENISCUS_HD inline uint32_t march_tile_cell(const uint8_t* mask, const TileVertexLookup& lookup,
+                                            const TetCaseTable& tet_cases, const TileEdgeTable<kA15TetCount>& edges,
+                                            uint64_t cell_key, uint64_t* out) {
   uint32_t n = 0;
   for (int t = 0; t < kA15TetCount; ++t) {
     const int16_t* o = lookup.offset[t];
     const uint8_t* b = lookup.bit[t];
     const int c = ((mask[o[0]] & b[0]) ? 1 : 0) | ((mask[o[1]] & b[1]) ? 2 : 0) | ((mask[o[2]] & b[2]) ? 4 : 0) |
                   ((mask[o[3]] & b[3]) ? 8 : 0);
-    const TetCase& tc = kTetCases.cases[c];
+    const TetCase& tc = tet_cases.cases[c];
     if (out != nullptr) {
       for (int k = 0; k < tc.count; ++k)
         for (int j = 0; j < 3; ++j)
-          out[3 * (n + k) + j] = cell_key + kA15EdgeTable.tet_edges[t][tc.edges[k][j]].key_delta;
+          out[3 * (n + k) + j] = cell_key + edges.tet_edges[t][tc.edges[k][j]].key_delta;
     }
     n += tc.count;
   }
@@ -69,37 +90,53 @@ MENISCUS_HD inline int cube_case(const uint8_t* mask, int stride_y, int stride_z
 }
 
 /// Marching Cubes: the cube whose lowest corner is the kernel's cell.
-MENISCUS_HD inline uint32_t march_cube_cell(const uint8_t* mask, int stride_y, int stride_z, uint64_t cell_key,
-                                            uint64_t* out) {
-  const CubeCase& cc = kCubeCases.cases[cube_case(mask, stride_y, stride_z)];
+MENISCUS_HD inline uint32_t march_cube_cell(const uint8_t* mask, int stride_y, int stride_z, const MarchingTables& tables,
+                                            uint64_t cell_key, uint64_t* out) {
+  const CubeCase& cc = tables.cube_cases.cases[cube_case(mask, stride_y, stride_z)];
   if (out != nullptr) {
     for (int k = 0; k < cc.count; ++k)
-      for (int j = 0; j < 3; ++j) out[3 * k + j] = cell_key + kCubeEdgeKeyDeltas.v[cc.edges[k][j]];
+      for (int j = 0; j < 3; ++j) out[3 * k + j] = cell_key + tables.cube_edge_deltas[cc.edges[k][j]];
   }
   return cc.count;
 }
 
 /// Marching Tetrahedra: the 6 Kuhn tetrahedra of the cube whose lowest corner is the kernel's cell.
-MENISCUS_HD inline uint32_t march_kuhn_cell(const uint8_t* mask, int stride_y, int stride_z, uint64_t cell_key,
-                                            uint64_t* out) {
+MENISCUS_HD inline uint32_t march_kuhn_cell(const uint8_t* mask, int stride_y, int stride_z, const MarchingTables& tables,
+                                            uint64_t cell_key, uint64_t* out) {
   const int corners = cube_case(mask, stride_y, stride_z);
   if (corners == 0 || corners == 255) return 0;
   uint32_t n = 0;
   for (int t = 0; t < kKuhnTetCount; ++t) {
     int c = 0;
     for (int v = 0; v < 4; ++v) {
-      const LatticeSample& p = kKuhnTets[t][v];
+      const LatticeSample& p = tables.kuhn_tets[t][v];
       c |= ((corners >> (p.dx + 2 * p.dy + 4 * p.dz)) & 1) << v;
     }
-    const TetCase& tc = kTetCases.cases[c];
+    const TetCase& tc = tables.tet_cases.cases[c];
     if (out != nullptr) {
       for (int k = 0; k < tc.count; ++k)
         for (int j = 0; j < 3; ++j)
-          out[3 * (n + k) + j] = cell_key + kKuhnEdgeTable.tet_edges[t][tc.edges[k][j]].key_delta;
+          out[3 * (n + k) + j] = cell_key + tables.kuhn_edges.tet_edges[t][tc.edges[k][j]].key_delta;
     }
     n += tc.count;
   }
   return n;
+}
+
+// --- the CPU's entry points: the kernels above with the constexpr tables (host only) -------------
+
+inline uint32_t march_tile_cell(const uint8_t* mask, const TileVertexLookup& lookup, uint64_t cell_key, uint64_t* out) {
+  return march_tile_cell(mask, lookup, kTetCases, kA15EdgeTable, cell_key, out);
+}
+inline const MarchingTables& cpu_marching_tables() {
+  static const MarchingTables tables = host_marching_tables();
+  return tables;
+}
+inline uint32_t march_cube_cell(const uint8_t* mask, int stride_y, int stride_z, uint64_t cell_key, uint64_t* out) {
+  return march_cube_cell(mask, stride_y, stride_z, cpu_marching_tables(), cell_key, out);
+}
+inline uint32_t march_kuhn_cell(const uint8_t* mask, int stride_y, int stride_z, uint64_t cell_key, uint64_t* out) {
+  return march_kuhn_cell(mask, stride_y, stride_z, cpu_marching_tables(), cell_key, out);
 }
 
 }  // namespace meniscus

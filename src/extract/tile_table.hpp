@@ -222,14 +222,21 @@ static_assert([] {
 
 // --- decoding a key ---------------------------------------------------------------------------------
 
-/// The two end samples of the edge with `key` on the A15 (a15 = true) or cubic lattice.
-MENISCUS_HD constexpr void edge_key_samples(uint64_t key, bool a15, Vec3i* cell0, int* s0, Vec3i* cell1, int* s1) {
+/// The two end samples of the edge with `key`, given the lattice's table of edge types
+/// (kA15EdgeTable.types or kKuhnEdgeTable.types, or a device copy of one).
+MENISCUS_HD constexpr void edge_key_samples(uint64_t key, const LatticeEdge* types, Vec3i* cell0, int* s0, Vec3i* cell1,
+                                            int* s1) {
   const Vec3i base = edge_key_cell(key);
-  const LatticeEdge e = a15 ? kA15EdgeTable.types[edge_key_type(key)] : kKuhnEdgeTable.types[edge_key_type(key)];
+  const LatticeEdge e = types[edge_key_type(key)];
   *cell0 = base;
   *s0 = e.s0;
   *cell1 = Vec3i{base.x + e.dx, base.y + e.dy, base.z + e.dz};
   *s1 = e.s1;
+}
+
+/// The two end samples of the edge with `key` on the A15 (a15 = true) or cubic lattice (host).
+constexpr void edge_key_samples(uint64_t key, bool a15, Vec3i* cell0, int* s0, Vec3i* cell1, int* s1) {
+  edge_key_samples(key, a15 ? kA15EdgeTable.types : kKuhnEdgeTable.types, cell0, s0, cell1, s1);
 }
 
 }  // namespace meniscus

@@ -1,5 +1,6 @@
 // meniscus — sparse distance field (Williams 2008; Edespong 2010 §3.2).
 #include "field/distance_field.hpp"
+#include "field/distance_field_impl.hpp"
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -22,10 +23,7 @@ std::vector<uint64_t> band_blocks(const HashGrid& grid, const SampleLattice& lat
       const Vec3i cell = unpack_coords(cells[i]);
       // The hash cell's box expanded by the band, in block coordinates.
       int32_t lo[3], hi[3];
-      for (int a = 0; a < 3; ++a) {
-        lo[a] = int32_t(std::floor((float(cell[a]) * c - band) / block_size));
-        hi[a] = int32_t(std::floor((float(cell[a] + 1) * c + band) / block_size));
-      }
+      for (int a = 0; a < 3; ++a) band_block_range(cell[a], c, band, block_size, &lo[a], &hi[a]);
       for (int32_t z = lo[2]; z <= hi[2]; ++z)
         for (int32_t y = lo[1]; y <= hi[1]; ++y)
           for (int32_t x = lo[0]; x <= hi[0]; ++x) out.push_back(pack_coords(x, y, z));
@@ -71,26 +69,28 @@ SparseField distance_field(const HashGrid& grid, const SampleLattice& lattice, f
                 int32_t lo[3], hi[3];
                 bool empty = false;
                 for (int ax = 0; ax < 3; ++ax) {
-                  lo[ax] = std::max(int32_t(std::ceil((p[ax] - band) * inv_a - off[ax])), origin[ax]) - origin[ax];
-                  hi[ax] = std::min(int32_t(std::floor((p[ax] + band) * inv_a - off[ax])), origin[ax] + n - 1) -
-                           origin[ax];
+                  particle_cell_range(p[ax], band, inv_a, off[ax], &lo[ax], &hi[ax]);
+                  lo[ax] = std::max(lo[ax], origin[ax]) - origin[ax];
+                  hi[ax] = std::min(hi[ax], origin[ax] + n - 1) - origin[ax];
                   empty |= lo[ax] > hi[ax];
                 }
                 if (empty) continue;
                 for (int32_t z = lo[2]; z <= hi[2]; ++z) {
-                  const float dz = (float(origin.z + z) + off.z) * a - p.z;
+                  const float dz = sample_delta(origin.z + z, off.z, a, p.z);
                   for (int32_t y = lo[1]; y <= hi[1]; ++y) {
-                    const float dy = (float(origin.y + y) + off.y) * a - p.y;
+                    const float dy = sample_delta(origin.y + y, off.y, a, p.y);
                     const float dyz = dy * dy + dz * dz;
-                    if (dyz > band2) continue;
-                    // Only the row's samples inside the band sphere (half the box's volume).
-                    const float half = std::sqrt(band2 - dyz);
+                    if (dyz > band2 * (1.0f + 1e-5f)) continue;
+                    // Only the row's samples inside the band sphere (half the box's volume). The
+                    // range is widened by a rounding allowance: a sample it adds reads ≥ band², which
+                    // the final clamp discards, so the field is the same as over the whole box.
+                    const float half = std::sqrt(std::max(band2 - dyz, 0.0f)) * (1.0f + 1e-5f) + 1e-6f * a;
                     const int32_t x0 = std::max(int32_t(std::ceil((p.x - half) * inv_a - off.x)) - origin.x, lo[0]);
                     const int32_t x1 = std::min(int32_t(std::floor((p.x + half) * inv_a - off.x)) - origin.x, hi[0]);
                     for (int32_t x = x0; x <= x1; ++x) {
-                      const float dx = (float(origin.x + x) + off.x) * a - p.x;
+                      const float dx = sample_delta(origin.x + x, off.x, a, p.x);
                       float& slot = d2[std::size_t(((z * n + y) * n + x) * spc + s)];
-                      slot = std::min(slot, dx * dx + dyz);
+                      slot = std::min(slot, sample_dist2(dx, dy, dz));
                     }
                   }
                 }

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "grid/hash_grid_impl.hpp"
 #include "grid/key_index.hpp"
 #include "meniscus/vec.hpp"
 
@@ -17,10 +18,8 @@ namespace meniscus {
 
 class HashGrid {
  public:
-  struct Nearest {
-    uint32_t index = kNotFound;  ///< index into sorted_points() (kNotFound: none found)
-    float dist2 = INFINITY;
-  };
+  /// index into sorted_points() (kNotFound: none found) and the squared distance.
+  using Nearest = NearestPoint;
 
   HashGrid() = default;
   /// Sorts the points by cell (parallel). `cell_size` > 0. Throws ResourceError when the points
@@ -38,10 +37,9 @@ class HashGrid {
   Vec3i cell_min() const { return cell_min_; }
   Vec3i cell_max() const { return cell_max_; }
 
-  Vec3i cell_of(Vec3f p) const {
-    const float inv = 1.0f / cell_size_;
-    return {int32_t(std::floor(p.x * inv)), int32_t(std::floor(p.y * inv)), int32_t(std::floor(p.z * inv))};
-  }
+  Vec3i cell_of(Vec3f p) const { return grid_cell_of(p, cell_size_); }
+  Vec3f point(uint32_t i) const { return sorted_[i]; }
+  const Vec3f* points() const { return sorted_.data(); }
   /// [begin, end) into sorted_points() of cell c (empty when unoccupied or out of range).
   std::pair<uint32_t, uint32_t> cell_range(Vec3i c) const {
     if (c.x < cell_min_.x || c.y < cell_min_.y || c.z < cell_min_.z || c.x > cell_max_.x ||
@@ -55,31 +53,19 @@ class HashGrid {
   /// Calls f(sorted_index, dist2) for every point within distance r of p.
   template <class F>
   void for_each_within(Vec3f p, float r, F&& f) const {
-    const float r2 = r * r;
-    const Vec3i lo = cell_of(p - Vec3f{r, r, r}), hi = cell_of(p + Vec3f{r, r, r});
-    for (int32_t z = std::max(lo.z, cell_min_.z); z <= std::min(hi.z, cell_max_.z); ++z)
-      for (int32_t y = std::max(lo.y, cell_min_.y); y <= std::min(hi.y, cell_max_.y); ++y)
-        for (int32_t x = std::max(lo.x, cell_min_.x); x <= std::min(hi.x, cell_max_.x); ++x) {
-          const auto [b, e] = cell_range({x, y, z});
-          for (uint32_t i = b; i < e; ++i) {
-            const float d2 = length2(sorted_[i] - p);
-            if (d2 <= r2) f(i, d2);
-          }
-        }
+    grid_for_each_within(*this, p, r, f);
   }
 
   /// The exact nearest point within max_radius of p (index kNotFound when there is none).
-  Nearest nearest(Vec3f p, float max_radius) const;
+  Nearest nearest(Vec3f p, float max_radius) const { return grid_nearest_within(*this, p, max_radius); }
   /// The exact nearest point, however far (kNotFound only for an empty grid).
-  Nearest nearest(Vec3f p) const;
+  Nearest nearest(Vec3f p) const { return grid_nearest(*this, p); }
 
   std::size_t memory_bytes() const {
     return sorted_.size() * (sizeof(Vec3f) + 4) + cell_keys_.size() * 12 + index_.memory_bytes();
   }
 
  private:
-  Nearest nearest_rings(Vec3f p, int max_ring, float max_dist2) const;
-
   float cell_size_ = 1;
   std::vector<Vec3f> sorted_;
   std::vector<uint32_t> order_;

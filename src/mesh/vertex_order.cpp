@@ -6,24 +6,14 @@
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
-#include <cmath>
 #include <limits>
 
 #include "extract/radix_sort.hpp"
+#include "mesh/vertex_order_impl.hpp"
 
 namespace meniscus {
 
 namespace {
-
-/// Spreads the low 10 bits of v so that there are two zero bits between each.
-uint64_t spread_bits(uint32_t v) {
-  uint64_t x = v & 0x3FFu;
-  x = (x | (x << 16)) & 0x030000FFull;
-  x = (x | (x << 8)) & 0x0300F00Full;
-  x = (x | (x << 4)) & 0x030C30C3ull;
-  x = (x | (x << 2)) & 0x09249249ull;
-  return x;
-}
 
 struct Box {
   Vec3f lo{std::numeric_limits<float>::max(), std::numeric_limits<float>::max(), std::numeric_limits<float>::max()};
@@ -59,17 +49,11 @@ void reorder_vertices_spatially(TriangleMesh& mesh) {
         a.add(b.hi);
         return a;
       });
-  const float extent = std::max({box.hi.x - box.lo.x, box.hi.y - box.lo.y, box.hi.z - box.lo.z});
-  const float scale = extent > 0 ? 1023.0f / extent : 0.0f;
-  auto cell = [&](float v, float lo) { return uint32_t(std::clamp((v - lo) * scale, 0.0f, 1023.0f)); };
+  const float scale = morton_scale(box.lo, box.hi);
 
   // Key: 30 Morton bits above the 32-bit old index (the payload keeps the sort stable).
   std::vector<uint64_t> keys(nv);
-  tbb::parallel_for(std::size_t(0), nv, [&](std::size_t i) {
-    const uint64_t code = spread_bits(cell(x[i].x, box.lo.x)) | spread_bits(cell(x[i].y, box.lo.y)) << 1 |
-                          spread_bits(cell(x[i].z, box.lo.z)) << 2;
-    keys[i] = code << 32 | i;
-  });
+  tbb::parallel_for(std::size_t(0), nv, [&](std::size_t i) { keys[i] = uint64_t(morton_key(x[i], box.lo, scale)) << 32 | i; });
   radix_sort(keys, 32, 62);
   std::vector<uint32_t> old_of_new(nv), new_of_old(nv);
   tbb::parallel_for(std::size_t(0), nv, [&](std::size_t i) {

@@ -2,6 +2,9 @@
 // backends: a vertex must lie between r_inner and r_outer from its nearest particle.
 #pragma once
 
+#include <cstdint>
+
+#include "grid/hash_grid_impl.hpp"
 #include "meniscus/vec.hpp"
 
 namespace meniscus {
@@ -17,6 +20,96 @@ MENISCUS_HD inline Vec3f project_to_shell(Vec3f x, Vec3f p, float r_inner, float
   }
   if (l2 > r_outer * r_outer) return p + d * (r_outer / std::sqrt(l2));
   return x;
+}
+
+/// The full projection of one vertex (Williams 2008 §4.2), shared by both backends: repeatedly
+/// project onto the shell of the current nearest particle (`nearest(y)` → NearestPoint) until the
+/// vertex lies in [r_inner, r_outer] of its nearest particle; in the rare case where the shells of
+/// two particles undo each other, search rays from the first nearest particle for a point that
+/// `clear(y)` (no particle within r_inner of y) accepts. `points` are the grid's sorted points.
+template <class NearestFn, class ClearFn>
+MENISCUS_HD Vec3f project_with(Vec3f x, float r_inner, float r_outer, const Vec3f* points, NearestFn&& nearest,
+                               ClearFn&& clear) {
+  // Accept within a few ulps of the shell, and project a hair inside it: a point projected
+  // exactly onto the shell measures up to an ulp outside half the time, which would otherwise
+  // send it round again.
+  const float lo2 = r_inner * r_inner * (1.0f - 4e-6f), hi2 = r_outer * r_outer * (1.0f + 4e-6f);
+  const float target_in = r_inner * (1.0f + 1e-6f), target_out = r_outer * (1.0f - 1e-6f);
+  // Each round fixes the violation against the current nearest particle; a second round is
+  // needed only where the inner shells of two particles overlap.
+  uint32_t first = kNotFound;
+  for (int round = 0; round < 4; ++round) {
+    const NearestPoint n = nearest(x);
+    if (n.index == kNotFound) return x;
+    if (n.dist2 >= lo2 && n.dist2 <= hi2) return x;
+    if (first == kNotFound) first = n.index;
+    x = project_to_shell(x, points[n.index], target_in, target_out);
+  }
+  const NearestPoint n = nearest(x);
+  if (n.dist2 >= lo2 && n.dist2 <= hi2) return x;
+  // Rare: projections against different particles undo each other (a vertex squeezed between
+  // the inner shell of one particle and the outer shell of another). Search the ray from the
+  // first nearest particle through x, from the outer shell inwards, for a point clear of every
+  // inner shell; on it the first particle is within r_outer, so the constraint holds.
+  const Vec3f p = points[first];
+  const Vec3f u = x == p ? Vec3f{0, 0, 1} : normalized(x - p);
+  constexpr int kSteps = 8;
+  auto search_ray = [&](Vec3f dir, Vec3f* out) {
+    for (int k = 0; k <= kSteps; ++k) {
+      const float t = target_out - (target_out - target_in) * float(k) / kSteps;
+      if (clear(p + dir * t)) {
+        *out = p + dir * t;
+        return true;
+      }
+    }
+    return false;
+  };
+  Vec3f y;
+  if (search_ray(u, &y)) return y;
+  // Then the directions around u, nearest first.
+  Vec3f best_y = x;
+  float best_dot = -2;
+  const float weights[2] = {0.5f, 2.0f};
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        if (dx == 0 && dy == 0 && dz == 0) continue;
+        const Vec3f e = normalized(Vec3f{float(dx), float(dy), float(dz)});
+        for (float w : weights) {
+          const Vec3f dir = normalized(u + e * w);
+          if (length2(dir) == 0 || dot(dir, u) <= best_dot) continue;
+          if (search_ray(dir, &y)) best_y = y, best_dot = dot(dir, u);
+        }
+      }
+  if (best_dot > -2) return best_y;
+  return x;  // no feasible point on that ray: keep the best effort
+}
+
+/// Whether no point of the grid lies strictly within r_inner of y (a few ulps of slack).
+template <class Grid>
+MENISCUS_HD bool clear_of_inner_shells(const Grid& g, Vec3f y, float r_inner) {
+  bool clear = true;
+  const float lo2 = r_inner * r_inner * (1.0f - 4e-6f);
+  grid_for_each_within(g, y, r_inner, [&](uint32_t, float d2) { clear &= d2 >= lo2; });
+  return clear;
+}
+
+/// The nearest particle for the projection: within 2·r_outer (the usual case, a short search),
+/// else anywhere.
+template <class Grid>
+MENISCUS_HD NearestPoint constraint_nearest(const Grid& g, Vec3f x, float r_outer) {
+  NearestPoint n = grid_nearest_within(g, x, 2.0f * r_outer);
+  if (n.index == kNotFound) n = grid_nearest(g, x);
+  return n;
+}
+
+/// project_with against the grid's exact nearest particle (the CUDA backend's projection; the CPU
+/// gets the same nearest particle from its NeighbourCache).
+template <class Grid>
+MENISCUS_HD Vec3f project_vertex_on(const Grid& g, Vec3f x, float r_inner, float r_outer) {
+  return project_with(
+      x, r_inner, r_outer, g.points(), [&](Vec3f y) { return constraint_nearest(g, y, r_outer); },
+      [&](Vec3f y) { return clear_of_inner_shells(g, y, r_inner); });
 }
 
 }  // namespace meniscus

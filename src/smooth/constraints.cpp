@@ -13,74 +13,12 @@ namespace meniscus {
 
 namespace {
 
-HashGrid::Nearest nearest_particle(const ShellConstraint& c, Vec3f x) {
-  HashGrid::Nearest n = c.particles->nearest(x, 2.0f * c.r_outer);
-  if (n.index == kNotFound) n = c.particles->nearest(x);
-  return n;
-}
-
-bool clear_of_inner_shells(const ShellConstraint& c, Vec3f y) {
-  bool clear = true;
-  const float lo2 = c.r_inner * c.r_inner * (1.0f - 4e-6f);
-  c.particles->for_each_within(y, c.r_inner, [&](uint32_t, float d2) { clear &= d2 >= lo2; });
-  return clear;
-}
+HashGrid::Nearest nearest_particle(const ShellConstraint& c, Vec3f x) { return constraint_nearest(*c.particles, x, c.r_outer); }
 
 template <class NearestFn>
-Vec3f project_with(const ShellConstraint& c, Vec3f x, NearestFn&& nearest_particle) {
-  const auto points = c.particles->sorted_points();
-  // Accept within a few ulps of the shell, and project a hair inside it: a point projected
-  // exactly onto the shell measures up to an ulp outside half the time, which would otherwise
-  // send it round again.
-  const float lo2 = c.r_inner * c.r_inner * (1.0f - 4e-6f), hi2 = c.r_outer * c.r_outer * (1.0f + 4e-6f);
-  const float target_in = c.r_inner * (1.0f + 1e-6f), target_out = c.r_outer * (1.0f - 1e-6f);
-  // Each round fixes the violation against the current nearest particle; a second round is
-  // needed only where the inner shells of two particles overlap.
-  uint32_t first = kNotFound;
-  for (int round = 0; round < 4; ++round) {
-    const HashGrid::Nearest n = nearest_particle(x);
-    if (n.index == kNotFound) return x;
-    if (n.dist2 >= lo2 && n.dist2 <= hi2) return x;
-    if (first == kNotFound) first = n.index;
-    x = project_to_shell(x, points[n.index], target_in, target_out);
-  }
-  const HashGrid::Nearest n = nearest_particle(x);
-  if (n.dist2 >= lo2 && n.dist2 <= hi2) return x;
-  // Rare: projections against different particles undo each other (a vertex squeezed between
-  // the inner shell of one particle and the outer shell of another). Search the ray from the
-  // first nearest particle through x, from the outer shell inwards, for a point clear of every
-  // inner shell; on it the first particle is within r_outer, so the constraint holds.
-  const Vec3f p = points[first];
-  const Vec3f u = x == p ? Vec3f{0, 0, 1} : normalized(x - p);
-  constexpr int kSteps = 8;
-  auto search_ray = [&](Vec3f dir, Vec3f* out) {
-    for (int k = 0; k <= kSteps; ++k) {
-      const float t = target_out - (target_out - target_in) * float(k) / kSteps;
-      if (clear_of_inner_shells(c, p + dir * t)) {
-        *out = p + dir * t;
-        return true;
-      }
-    }
-    return false;
-  };
-  Vec3f y;
-  if (search_ray(u, &y)) return y;
-  // Then the directions around u, nearest first.
-  Vec3f best_y = x;
-  float best_dot = -2;
-  for (int dz = -1; dz <= 1; ++dz)
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        if (dx == 0 && dy == 0 && dz == 0) continue;
-        const Vec3f e = normalized(Vec3f{float(dx), float(dy), float(dz)});
-        for (float w : {0.5f, 2.0f}) {
-          const Vec3f dir = normalized(u + e * w);
-          if (length2(dir) == 0 || dot(dir, u) <= best_dot) continue;
-          if (search_ray(dir, &y)) best_y = y, best_dot = dot(dir, u);
-        }
-      }
-  if (best_dot > -2) return best_y;
-  return x;  // no feasible point on that ray: keep the best effort
+Vec3f project_with(const ShellConstraint& c, Vec3f x, NearestFn&& nearest) {
+  return meniscus::project_with(x, c.r_inner, c.r_outer, c.particles->sorted_points().data(), nearest,
+                                [&](Vec3f y) { return clear_of_inner_shells(*c.particles, y, c.r_inner); });
 }
 
 }  // namespace

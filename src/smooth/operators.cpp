@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "smooth/cotangent_impl.hpp"
+#include "smooth/operators_impl.hpp"
 
 namespace meniscus {
 
@@ -21,73 +22,55 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
   op.b_diag.assign(nv, 0.0f);
   // Each vertex assembles its own row from its incident triangles: no two threads write the
   // same entry, so no atomics are needed.
+  const MeshRows rows{adj.offsets.data(), adj.neighbors.data(), adj.tri_offsets.data(), adj.tri_ids.data(),
+                      triangles.empty() ? nullptr : triangles.data()->data()};
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const auto& r) {
-    for (std::size_t iv = r.begin(); iv != r.end(); ++iv) {
-      const uint32_t i = uint32_t(iv);
-      const auto row = adj.row(i);
-      float* wrow = op.w.data() + adj.offsets[i];
-      float area = 0;
-      for (uint32_t k = adj.tri_offsets[i]; k < adj.tri_offsets[i + 1]; ++k) {
-        const Triangle& t = triangles[adj.tri_ids[k]];
-        const int c = t[0] == i ? 0 : (t[1] == i ? 1 : 2);
-        const uint32_t j = t[(c + 1) % 3], l = t[(c + 2) % 3];
-        const Vec3f pi = x[i], pj = x[j], pl = x[l];
-        // Edge (i, j) is opposite the angle at l; edge (i, l) is opposite the angle at j.
-        const float cot_l = clamped_cotangent(pl, pi, pj);
-        const float cot_j = clamped_cotangent(pj, pi, pl);
-        const auto at = [&](uint32_t v) { return std::size_t(std::lower_bound(row.begin(), row.end(), v) - row.begin()); };
-        wrow[at(j)] += cot_l;
-        wrow[at(l)] += cot_j;
-        area += clamped_area(pi, pj, pl);
-      }
-      float sum = 0;
-      for (std::size_t k = 0; k < row.size(); ++k) sum += wrow[k];
-      op.diag[i] = -sum;
-      op.area[i] = area / 3.0f;
-    }
+    for (std::size_t iv = r.begin(); iv != r.end(); ++iv)
+      cotan_row(rows, x.data(), uint32_t(iv), op.w.data(), &op.diag[iv], &op.area[iv]);
   });
   // Vertices that collapsed onto a neighbour have no area; a floor relative to the mean area
   // keeps D invertible without changing any healthy vertex.
-  double mean_area = 0;
-  for (float a : op.area) mean_area += a;
+  // Summed in the fixed tree the CUDA backend uses too, so both get the same floor.
+  const std::vector<std::size_t> leaves = sum_tree_leaves(nv);
+  std::vector<double> sums(leaves.size() - 1);
+  tbb::parallel_for(std::size_t(0), sums.size(), [&](std::size_t l) {
+    double s = 0.0;
+    for (std::size_t k = leaves[l]; k < leaves[l + 1]; ++k) s += double(op.area[k]);
+    sums[l] = s;
+  });
+  std::size_t next = 0;
+  double mean_area = sum_tree_combine(0, nv, kSumTreeGrain, sums.data(), &next);
   mean_area /= double(std::max<std::size_t>(nv, 1));
   const float area_floor = float(std::max(mean_area * 1e-6, 1e-30));
   for (float& a : op.area) a = std::max(a, area_floor);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      float b = op.diag[i] * op.diag[i] / op.area[i];
-      const auto row = adj.row(uint32_t(i));
-      for (std::size_t k = 0; k < row.size(); ++k) {
-        const float wik = op.w[adj.offsets[i] + k];
-        b += wik * wik / op.area[row[k]];
-      }
-      // An isolated vertex has no B row; a unit diagonal leaves it in place (its row is zero).
-      op.b_diag[i] = b > 0 && std::isfinite(b) ? b : 1.0f;
-    }
+    for (std::size_t i = r.begin(); i != r.end(); ++i)
+      op.b_diag[i] = bilaplacian_diagonal_row(adj.offsets.data(), adj.neighbors.data(), op.w.data(), op.diag.data(),
+                                              op.area.data(), uint32_t(i));
   });
   return op;
 }
 
 void apply_w(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> x, std::span<Vec3f> y) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 2048), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      Vec3f acc = x[i] * op.diag[i];
-      for (uint32_t k = adj.offsets[i]; k < adj.offsets[i + 1]; ++k) acc += x[adj.neighbors[k]] * op.w[k];
-      y[i] = acc;
-    }
+    for (std::size_t i = r.begin(); i != r.end(); ++i)
+      y[i] = apply_w_row(adj.offsets.data(), adj.neighbors.data(), op.w.data(), op.diag.data(), x.data(), uint32_t(i));
   });
 }
 
 double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx) {
   // Deterministic: the energy decides whether a sweep is redone with a smaller ω, so the same
   // input must give the same sum whatever the thread scheduling.
-  return tbb::parallel_deterministic_reduce(
-      tbb::blocked_range<std::size_t>(0, wx.size(), 4096), 0.0,
-      [&](const auto& r, double e) {
-        for (std::size_t k = r.begin(); k != r.end(); ++k) e += double(length2(wx[k])) / double(op.area[k]);
-        return e;
-      },
-      std::plus<>());
+  // The CUDA backend sums in the same tree (operators_impl.hpp), so both take the same decisions.
+  const std::vector<std::size_t> leaves = sum_tree_leaves(wx.size());
+  std::vector<double> sums(leaves.size() - 1);
+  tbb::parallel_for(std::size_t(0), sums.size(), [&](std::size_t l) {
+    double e = 0.0;
+    for (std::size_t k = leaves[l]; k < leaves[l + 1]; ++k) e += energy_term(wx[k], op.area[k]);
+    sums[l] = e;
+  });
+  std::size_t next = 0;
+  return sum_tree_combine(0, wx.size(), kSumTreeGrain, sums.data(), &next);
 }
 
 Vec3f bilaplacian_row(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> x, uint32_t i) {

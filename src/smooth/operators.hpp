@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "smooth/adjacency.hpp"
+#include "smooth/operators_impl.hpp"
 
 namespace meniscus {
 
@@ -30,12 +31,8 @@ double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx);
 /// (B x)_i for one vertex given wx = W x: Σ_k W_ik / D_k (W x)_k over i and its ring.
 inline Vec3f bilaplacian_row_from_wx(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> wx,
                                      uint32_t i) {
-  Vec3f out = wx[i] * (op.diag[i] / op.area[i]);
-  for (uint32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) {
-    const uint32_t k = adj.neighbors[e];
-    out += wx[k] * (op.w[e] / op.area[k]);
-  }
-  return out;
+  return bilaplacian_row_from_wx(adj.offsets.data(), adj.neighbors.data(), op.w.data(), op.diag.data(),
+                                 op.area.data(), wx.data(), i);
 }
 
 /// (B x)_i for one vertex from the current x (two rings).

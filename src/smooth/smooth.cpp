@@ -35,11 +35,7 @@ void for_each_in_colors(const Coloring& coloring, F&& f, P&& prefetch) {
 }
 
 Vec3f neighbour_mean(const Adjacency& adj, std::span<const Vec3f> x, uint32_t i) {
-  const auto row = adj.row(i);
-  if (row.empty()) return x[i];
-  Vec3f sum{0, 0, 0};
-  for (uint32_t j : row) sum += x[j];
-  return sum / float(row.size());
+  return neighbour_mean_row(adj.offsets.data(), adj.neighbors.data(), x.data(), i);
 }
 
 double energy_of(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> x, std::vector<Vec3f>& scratch) {

@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# meniscus — build with CUDA (+ benchmarks), run the CUDA tests (device stages and CPU/GPU
+# parity) and the GPU benchmark at 100k, 1M and 10M particles. Needs nvcc and a CUDA device.
+#   bash bench/gpu.sh [BUILD_DIR]        (default build/gpu)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD=${1:-build/gpu}
+JOBS=${JOBS:-$(nproc)}
+
+cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DMENISCUS_CUDA=ON -DMENISCUS_BUILD_BENCH=ON
+cmake --build "$BUILD" -j "$JOBS"
+
+"$BUILD/meniscus" info
+
+echo "== CUDA tests (backend dispatch, shared code, device stages, parity) =="
+"$BUILD/tests/meniscus_tests" --gtest_filter='SumTree*:MarchingTables*:Backend*:Cuda*' --gtest_color=no
+
+echo "== GPU benchmark: jittered blocks, per-stage device times (CUDA events) =="
+"$BUILD/meniscus_bench_gpu" --backend cuda --counts "${COUNTS:-100000,1000000,10000000}"
+
+echo "== the same scenes on the CPU backend, for comparison (100k, 1M) =="
+"$BUILD/meniscus_bench_gpu" --backend cpu --counts "${CPU_COUNTS:-100000,1000000}"

@@ -1,0 +1,95 @@
+// meniscus — CUDA error checking and device memory ownership for the CUDA backend. Every runtime
+// call goes through MENISCUS_CUDA_CHECK, which throws CudaError (file, line, the call and the CUDA
+// error string) — the library never exits. DeviceBuffer owns one cudaMalloc allocation (RAII,
+// move-only), so every path out of a stage, exceptions included, frees device memory.
+#pragma once
+
+#include <cuda_runtime.h>
+
+#include <cstddef>
+#include <string>
+#include <utility>
+
+#include "meniscus/errors.hpp"
+
+#define MENISCUS_CUDA_CHECK(call)                                                                        \
+  do {                                                                                                   \
+    const cudaError_t meniscus_cuda_status_ = (call);                                                    \
+    if (meniscus_cuda_status_ != cudaSuccess)                                                            \
+      throw ::meniscus::CudaError(__FILE__, __LINE__,                                                    \
+                                  std::string(#call) + ": " + cudaGetErrorString(meniscus_cuda_status_)); \
+  } while (0)
+
+/// Checks the launch of the kernel just queued (configuration errors; faults surface at the next
+/// synchronising call, which is checked too).
+#define MENISCUS_CUDA_CHECK_LAUNCH() MENISCUS_CUDA_CHECK(cudaGetLastError())
+
+namespace meniscus::cuda {
+
+template <class T>
+class DeviceBuffer {
+ public:
+  DeviceBuffer() = default;
+  explicit DeviceBuffer(std::size_t n) { resize(n); }
+  ~DeviceBuffer() { release(); }
+  DeviceBuffer(const DeviceBuffer&) = delete;
+  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
+  DeviceBuffer(DeviceBuffer&& o) noexcept : data_(std::exchange(o.data_, nullptr)), size_(std::exchange(o.size_, 0)) {}
+  DeviceBuffer& operator=(DeviceBuffer&& o) noexcept {
+    if (this != &o) {
+      release();
+      data_ = std::exchange(o.data_, nullptr);
+      size_ = std::exchange(o.size_, 0);
+    }
+    return *this;
+  }
+
+  /// Reallocates (contents are not kept) to n elements; n = 0 frees.
+  void resize(std::size_t n) {
+    if (n == size_) return;
+    release();
+    if (n > 0) MENISCUS_CUDA_CHECK(cudaMalloc(reinterpret_cast<void**>(&data_), n * sizeof(T)));
+    size_ = n;
+  }
+  void zero() {
+    if (size_ > 0) MENISCUS_CUDA_CHECK(cudaMemset(data_, 0, size_ * sizeof(T)));
+  }
+  void upload(const T* host, std::size_t n) {
+    resize(n);
+    if (n > 0) MENISCUS_CUDA_CHECK(cudaMemcpy(data_, host, n * sizeof(T), cudaMemcpyHostToDevice));
+  }
+  void download(T* host, std::size_t n) const {
+    if (n > size_) throw ResourceError("DeviceBuffer::download: more elements than the buffer holds");
+    if (n > 0) MENISCUS_CUDA_CHECK(cudaMemcpy(host, data_, n * sizeof(T), cudaMemcpyDeviceToHost));
+  }
+  /// One element (a count, a flag) back to the host.
+  T get(std::size_t i) const {
+    T v{};
+    MENISCUS_CUDA_CHECK(cudaMemcpy(&v, data_ + i, sizeof(T), cudaMemcpyDeviceToHost));
+    return v;
+  }
+  void copy_from(const DeviceBuffer& o) {
+    resize(o.size_);
+    if (size_ > 0) MENISCUS_CUDA_CHECK(cudaMemcpy(data_, o.data_, size_ * sizeof(T), cudaMemcpyDeviceToDevice));
+  }
+  T* data() { return data_; }
+  const T* data() const { return data_; }
+  std::size_t size() const { return size_; }
+
+ private:
+  void release() noexcept {
+    if (data_ != nullptr) cudaFree(data_);  // cannot fail meaningfully in a destructor
+    data_ = nullptr;
+    size_ = 0;
+  }
+  T* data_ = nullptr;
+  std::size_t size_ = 0;
+};
+
+/// Blocks for a grid-stride loop over n elements (at least 1, capped; kernels loop).
+inline unsigned blocks_for(std::size_t n, unsigned threads = 256) {
+  const std::size_t b = (n + threads - 1) / threads;
+  return unsigned(b == 0 ? 1 : (b > 65535u * 8 ? 65535u * 8 : b));
+}
+
+}  // namespace meniscus::cuda

@@ -1,0 +1,126 @@
+// meniscus — the sparse distance field on the device (Williams 2008 §3; Edespong 2010 §3.2): the
+// band's blocks from the occupied hash cells (count, scan, write, sort, unique), then one thread
+// block per field block and one thread per sample gathering the particles of the nearby hash cells
+// (no atomics). The sample/particle arithmetic is distance_field_impl.hpp, as on the CPU.
+#include "cuda/primitives.hpp"
+#include "cuda/stages_cuda.hpp"
+#include "field/distance_field_impl.hpp"
+
+namespace meniscus::cuda {
+
+namespace {
+
+__constant__ float c_sample_offsets[8][3];
+
+__global__ void band_block_count_kernel(const uint64_t* cells, uint32_t n, float cell_size, float band,
+                                        float block_size, uint64_t* counts) {
+  for (uint32_t i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x) {
+    const Vec3i c = unpack_coords(cells[i]);
+    uint64_t count = 1;
+    for (int a = 0; a < 3; ++a) {
+      int32_t lo, hi;
+      band_block_range(c[a], cell_size, band, block_size, &lo, &hi);
+      count *= uint64_t(int64_t(hi) - lo + 1);
+    }
+    counts[i] = count;
+  }
+}
+
+__global__ void band_block_write_kernel(const uint64_t* cells, uint32_t n, float cell_size, float band,
+                                        float block_size, const uint64_t* offsets, uint64_t* keys) {
+  for (uint32_t i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x) {
+    const Vec3i c = unpack_coords(cells[i]);
+    int32_t lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) band_block_range(c[a], cell_size, band, block_size, &lo[a], &hi[a]);
+    uint64_t out = offsets[i];
+    for (int32_t z = lo[2]; z <= hi[2]; ++z)
+      for (int32_t y = lo[1]; y <= hi[1]; ++y)
+        for (int32_t x = lo[0]; x <= hi[0]; ++x) keys[out++] = pack_coords(x, y, z);
+  }
+}
+
+/// One thread block per field block; thread t handles samples t, t + blockDim, ….
+__global__ void distance_kernel(GridView grid, const uint64_t* block_keys, int n, int spc, float a, float band,
+                                float* values) {
+  const uint64_t b = blockIdx.x;
+  const Vec3i bc = unpack_coords(block_keys[b]);
+  const Vec3i origin{bc.x * n, bc.y * n, bc.z * n};
+  const float inv_a = 1.0f / a;
+  const float band2 = band * band;
+  const Vec3f box_lo = Vec3f{float(origin.x), float(origin.y), float(origin.z)} * a;
+  const Vec3f box_hi = box_lo + Vec3f{1, 1, 1} * (a * float(n));
+  const Vec3i clo = grid_cell_of(box_lo - Vec3f{band, band, band}, grid.cs);
+  const Vec3i chi = grid_cell_of(box_hi + Vec3f{band, band, band}, grid.cs);
+  for (int idx = threadIdx.x; idx < kBlockSamples; idx += blockDim.x) {
+    const int cell = idx / spc, s = idx % spc;
+    const Vec3i l{cell % n, (cell / n) % n, cell / (n * n)};
+    const Vec3i g{origin.x + l.x, origin.y + l.y, origin.z + l.z};
+    const float off[3] = {c_sample_offsets[s][0], c_sample_offsets[s][1], c_sample_offsets[s][2]};
+    float d2 = band2;
+    for (int32_t cz = clo.z; cz <= chi.z; ++cz)
+      for (int32_t cy = clo.y; cy <= chi.y; ++cy)
+        for (int32_t cx = clo.x; cx <= chi.x; ++cx) {
+          const CellRange r = grid.cell_range(Vec3i{cx, cy, cz});
+          for (uint32_t pi = r.first; pi < r.second; ++pi) {
+            const Vec3f p = grid.sorted[pi];
+            // The same reach test as the CPU's scatter: is this sample in p's band box?
+            bool inside = true;
+            for (int ax = 0; ax < 3; ++ax) {
+              int32_t lo, hi;
+              particle_cell_range(p[ax], band, inv_a, off[ax], &lo, &hi);
+              inside = inside && lo <= g[ax] && g[ax] <= hi;
+            }
+            if (!inside) continue;
+            const float dx = sample_delta(g.x, off[0], a, p.x);
+            const float dy = sample_delta(g.y, off[1], a, p.y);
+            const float dz = sample_delta(g.z, off[2], a, p.z);
+            const float d = sample_dist2(dx, dy, dz);
+            d2 = d < d2 ? d : d2;
+          }
+        }
+    values[b * kBlockSamples + uint64_t(idx)] = sqrtf(d2 < band2 ? d2 : band2);
+  }
+}
+
+}  // namespace
+
+DeviceBuffer<uint64_t> band_blocks(const DeviceGrid& grid, const SampleLattice& lattice, float band,
+                                   std::size_t* block_count) {
+  const float block_size = lattice.cell_size * float(lattice.block_cells());
+  DeviceBuffer<uint64_t> counts(std::size_t(grid.cells) + 1), offsets(std::size_t(grid.cells) + 1);
+  band_block_count_kernel<<<blocks_for(grid.cells), 256>>>(grid.keys.data(), grid.cells, grid.cell_size, band,
+                                                           block_size, counts.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  exclusive_sum(counts.data(), offsets.data(), grid.cells);
+  const uint64_t total = offsets.get(grid.cells);
+  DeviceBuffer<uint64_t> keys(total);
+  band_block_write_kernel<<<blocks_for(grid.cells), 256>>>(grid.keys.data(), grid.cells, grid.cell_size, band,
+                                                           block_size, offsets.data(), keys.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  sort_keys(keys, total);
+  *block_count = unique_sorted(keys, total);
+  return keys;
+}
+
+DeviceField distance_field(const DeviceGrid& grid, const SampleLattice& lattice, float band,
+                           DeviceBuffer<uint64_t> keys, std::size_t block_count) {
+  float offsets[8][3] = {};
+  for (int s = 0; s < lattice.samples_per_cell(); ++s)
+    for (int a = 0; a < 3; ++a) offsets[s][a] = lattice.sample_offset(s)[a];
+  MENISCUS_CUDA_CHECK(cudaMemcpyToSymbol(c_sample_offsets, offsets, sizeof(offsets)));
+  DeviceField f;
+  f.lattice = lattice;
+  f.background = band;
+  f.blocks = uint32_t(block_count);
+  f.values.resize(block_count * kBlockSamples);
+  if (block_count > 0) {
+    distance_kernel<<<unsigned(block_count), 128>>>(grid.view(), keys.data(), lattice.block_cells(),
+                                                    lattice.samples_per_cell(), lattice.cell_size, band,
+                                                    f.values.data());
+    MENISCUS_CUDA_CHECK_LAUNCH();
+  }
+  f.keys = std::move(keys);
+  return f;
+}
+
+}  // namespace meniscus::cuda

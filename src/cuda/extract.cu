@@ -1,0 +1,417 @@
+// meniscus — iso-surface extraction on the device (Williams 2008 Marching Tiles; Lorensen & Cline
+// 1987; Doi & Koide 1991; Edespong 2010 §4.3): inside masks per cell, the blocks to march
+// (allocated + ghost blocks), per-cell triangle counts, an exclusive scan over (block, cell) — the
+// CPU's order — and the write pass with the shared kernels of marching_impl.hpp; then the weld:
+// a stable sort of the corner edge keys, one vertex per distinct key (increasing key order, as on
+// the CPU), positions from the field. Also the small-void removal of mesh/voids.cpp.
+#include "cuda/primitives.hpp"
+#include "cuda/stages_cuda.hpp"
+#include "extract/edge_key.hpp"
+#include "extract/extract.hpp"
+#include "extract/marching_impl.hpp"
+
+namespace meniscus::cuda {
+
+namespace {
+
+// Raw storage: MarchingTables has default member initialisers, which a __device__ variable cannot
+// run; the host copies the constexpr tables in (upload_tables).
+__device__ uint64_t d_tables_storage[(sizeof(MarchingTables) + 7) / 8];
+#define d_tables (*reinterpret_cast<const MarchingTables*>(d_tables_storage))
+__device__ TileVertexLookup d_tile_lookup;
+__constant__ float c_offsets[8][3];
+
+__global__ void masks_kernel(const float* values, uint64_t samples, int spc, float iso, uint8_t* masks) {
+  const uint64_t cells = samples / uint64_t(spc);
+  for (uint64_t c = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; c < cells; c += uint64_t(gridDim.x) * blockDim.x) {
+    unsigned bits = 0;
+    for (int s = 0; s < spc; ++s) bits |= unsigned(values[c * spc + s] < iso) << s;
+    masks[c] = uint8_t(bits);
+  }
+}
+
+__device__ bool block_has_inside(const uint8_t* masks, uint32_t b, int cells) {
+  for (int c = 0; c < cells; ++c)
+    if (masks[uint64_t(b) * cells + c] != 0) return true;
+  return false;
+}
+
+/// Ghost blocks: unallocated neighbours (on the stencil's side) of blocks with an inside sample.
+__global__ void ghost_kernel(const uint64_t* keys, uint32_t blocks, const uint8_t* masks, int cells, bool full,
+                             const uint64_t* offsets, uint64_t* out, uint32_t* counts) {
+  for (uint32_t b = blockIdx.x * blockDim.x + threadIdx.x; b < blocks; b += gridDim.x * blockDim.x) {
+    uint32_t n = 0;
+    if (block_has_inside(masks, b, cells)) {
+      const Vec3i c = unpack_coords(keys[b]);
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            if (dx == 0 && dy == 0 && dz == 0) continue;
+            if (!full && (dx > 0 || dy > 0 || dz > 0)) continue;
+            const uint64_t k = pack_coords(c.x + dx, c.y + dy, c.z + dz);
+            if (find_sorted(keys, blocks, k) != kNotFound) continue;
+            if (out != nullptr) out[offsets[b] + n] = k;
+            ++n;
+          }
+    }
+    if (counts != nullptr) counts[b] = n;
+  }
+}
+
+__global__ void key_range_kernel(const uint64_t* keys, uint32_t blocks, int n, int* bad) {
+  for (uint32_t b = blockIdx.x * blockDim.x + threadIdx.x; b < blocks; b += gridDim.x * blockDim.x) {
+    const Vec3i c = unpack_coords(keys[b]);
+    for (int a = 0; a < 3; ++a) {
+      const int64_t first = int64_t(c[a]) * n, last = first + n - 1;
+      if (first - n - 2 < -kEdgeKeyMaxCoord || last + n + 2 > kEdgeKeyMaxCoord) atomicExch(bad, 1);
+    }
+  }
+}
+
+/// One thread block per march block: gathers the padded masks into shared memory, then each
+/// thread counts (out == nullptr) or writes the triangles of its cells.
+template <bool kTiles>
+__global__ void march_kernel(const uint64_t* march_keys, const uint64_t* field_keys, uint32_t field_blocks,
+                             const uint8_t* cell_masks, int n, Extractor extractor, uint64_t* counts,
+                             const uint64_t* offsets, uint64_t* corners) {
+  __shared__ uint8_t padded[10 * 10 * 10];
+  __shared__ uint32_t neighbour[27];
+  const int p = n + 2, cells = n * n * n;
+  const uint64_t b = blockIdx.x;
+  const Vec3i bc = unpack_coords(march_keys[b]);
+  if (threadIdx.x < 27) {
+    const int dx = int(threadIdx.x % 3) - 1, dy = int(threadIdx.x / 3 % 3) - 1, dz = int(threadIdx.x / 9) - 1;
+    neighbour[threadIdx.x] = find_sorted(field_keys, field_blocks, pack_coords(bc.x + dx, bc.y + dy, bc.z + dz));
+  }
+  __syncthreads();
+  for (int i = threadIdx.x; i < p * p * p; i += blockDim.x) {
+    const int x = i % p - 1, y = i / p % p - 1, z = i / (p * p) - 1;
+    const int dx = x < 0 ? -1 : (x >= n ? 1 : 0), dy = y < 0 ? -1 : (y >= n ? 1 : 0), dz = z < 0 ? -1 : (z >= n ? 1 : 0);
+    const uint32_t nb = neighbour[(dz + 1) * 9 + (dy + 1) * 3 + (dx + 1)];
+    const int lx = x - dx * n, ly = y - dy * n, lz = z - dz * n;
+    padded[i] = nb == kNotFound ? uint8_t(0) : cell_masks[uint64_t(nb) * cells + uint64_t((lz * n + ly) * n + lx)];
+  }
+  __syncthreads();
+  const Vec3i origin{bc.x * n, bc.y * n, bc.z * n};
+  const int sy = p, sz = p * p;
+  for (int c = threadIdx.x; c < cells; c += blockDim.x) {
+    const int x = c % n, y = c / n % n, z = c / (n * n);
+    const uint8_t* m = padded + ((z + 1) * p + (y + 1)) * p + (x + 1);
+    const uint64_t slot = b * uint64_t(cells) + uint64_t(c);
+    uint64_t* out = corners != nullptr ? corners + 3 * offsets[slot] : nullptr;
+    if (out == nullptr && counts == nullptr) continue;
+    uint32_t count = 0;
+    const uint64_t cell_key = edge_key(Vec3i{origin.x + x, origin.y + y, origin.z + z}, 0);
+    if (kTiles) {
+      unsigned any = 0, all = 0xFF;
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const unsigned v = m[dx + dy * sy + dz * sz];
+            any |= v;
+            all &= v;
+          }
+      if (!(any == 0 || all == 0xFF))
+        count = march_tile_cell(m, d_tile_lookup, d_tables.tet_cases, d_tables.a15_edges, cell_key, out);
+    } else if (extractor == Extractor::cubes) {
+      count = march_cube_cell(m, sy, sz, d_tables, cell_key, out);
+    } else {
+      count = march_kuhn_cell(m, sy, sz, d_tables, cell_key, out);
+    }
+    if (counts != nullptr) counts[slot] = count;
+  }
+}
+
+__global__ void index_kernel(uint32_t* v, uint64_t n) {
+  for (uint64_t i = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; i < n; i += uint64_t(gridDim.x) * blockDim.x)
+    v[i] = uint32_t(i);
+}
+
+__global__ void weld_heads_kernel(const uint64_t* keys, uint64_t n, uint32_t* heads) {
+  for (uint64_t i = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; i < n; i += uint64_t(gridDim.x) * blockDim.x)
+    heads[i] = (i == 0 || keys[i] != keys[i - 1]) ? 1u : 0u;
+}
+
+__global__ void weld_scatter_kernel(const uint64_t* keys, const uint32_t* corner, const uint32_t* heads,
+                                    const uint32_t* vertex_of, uint64_t n, uint32_t* triangles,
+                                    uint64_t* vertex_keys) {
+  for (uint64_t i = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; i < n; i += uint64_t(gridDim.x) * blockDim.x) {
+    // vertex_of is the exclusive scan of heads: the run of i is vertex (scan + head − 1).
+    const uint32_t v = vertex_of[i] + heads[i] - 1;
+    if (heads[i]) vertex_keys[v] = keys[i];
+    triangles[corner[i]] = v;
+  }
+}
+
+__global__ void vertex_position_kernel(const uint64_t* vertex_keys, uint64_t nv, FieldView field, bool a15,
+                                       float cell_size, float iso, Vec3f* vertices) {
+  const LatticeEdge* types = a15 ? d_tables.a15_edges.types : d_tables.kuhn_edges.types;
+  for (uint64_t v = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; v < nv; v += uint64_t(gridDim.x) * blockDim.x) {
+    Vec3i c0, c1;
+    int s0 = 0, s1 = 0;
+    edge_key_samples(vertex_keys[v], types, &c0, &s0, &c1, &s1);
+    const float t = edge_parameter(field.value(c0, s0), field.value(c1, s1), iso, kEdgeClamp);
+    // SampleLattice::sample_position, with the offsets from constant memory.
+    const Vec3f p0 = Vec3f{float(c0.x) + c_offsets[s0][0], float(c0.y) + c_offsets[s0][1], float(c0.z) + c_offsets[s0][2]} *
+                     cell_size;
+    const Vec3f p1 = Vec3f{float(c1.x) + c_offsets[s1][0], float(c1.y) + c_offsets[s1][1], float(c1.z) + c_offsets[s1][2]} *
+                     cell_size;
+    vertices[v] = p0 + (p1 - p0) * t;
+  }
+}
+
+__global__ void repeated_kernel(const uint32_t* tris, uint64_t nt, unsigned long long* count) {
+  for (uint64_t t = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; t < nt; t += uint64_t(gridDim.x) * blockDim.x) {
+    const uint32_t a = tris[3 * t], b = tris[3 * t + 1], c = tris[3 * t + 2];
+    if (a == b || b == c || a == c) atomicAdd(count, 1ull);
+  }
+}
+
+void upload_tables(const SampleLattice& lattice) {
+  static const MarchingTables tables = host_marching_tables();
+  static constexpr TileVertexLookup lookup = make_tile_vertex_lookup(6, 36);
+  MENISCUS_CUDA_CHECK(cudaMemcpyToSymbol(d_tables_storage, &tables, sizeof(tables)));
+  MENISCUS_CUDA_CHECK(cudaMemcpyToSymbol(d_tile_lookup, &lookup, sizeof(lookup)));
+  float offsets[8][3] = {};
+  for (int s = 0; s < lattice.samples_per_cell(); ++s)
+    for (int a = 0; a < 3; ++a) offsets[s][a] = lattice.sample_offset(s)[a];
+  MENISCUS_CUDA_CHECK(cudaMemcpyToSymbol(c_offsets, offsets, sizeof(offsets)));
+}
+
+}  // namespace
+
+DeviceMesh extract_surface(const DeviceField& field, float iso, Extractor extractor) {
+  const bool a15 = field.lattice.kind == SampleLattice::Kind::a15;
+  if (a15 != (extractor == Extractor::tiles))
+    throw InvalidParameter("extract_surface (cuda): the field's lattice does not fit the extractor");
+  if (!(field.background > iso)) throw InvalidParameter("extract_surface (cuda): the background must be > the iso value");
+  upload_tables(field.lattice);
+  DeviceMesh mesh;
+  const uint32_t blocks = field.blocks;
+  if (blocks == 0) return mesh;
+  const int n = field.lattice.block_cells(), spc = field.lattice.samples_per_cell(), cells = n * n * n;
+  {
+    DeviceBuffer<int> bad(1);
+    bad.zero();
+    key_range_kernel<<<blocks_for(blocks), 256>>>(field.keys.data(), blocks, n, bad.data());
+    MENISCUS_CUDA_CHECK_LAUNCH();
+    if (bad.get(0) != 0)
+      throw ResourceError("extract_surface (cuda): a field block lies outside the range of the 64-bit edge keys; use a "
+                          "larger voxel size or move the particles closer to the origin");
+  }
+  DeviceBuffer<uint8_t> masks(std::size_t(blocks) * cells);
+  masks_kernel<<<blocks_for(std::size_t(blocks) * cells), 256>>>(field.values.data(), uint64_t(blocks) * kBlockSamples,
+                                                                  spc, iso, masks.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+
+  // Blocks to march: the allocated ones plus the ghosts, sorted, unique.
+  const bool full = extractor == Extractor::tiles;
+  DeviceBuffer<uint32_t> ghost_counts(blocks), ghost_offsets32(std::size_t(blocks) + 1);
+  ghost_kernel<<<blocks_for(blocks), 256>>>(field.keys.data(), blocks, masks.data(), cells, full, nullptr, nullptr,
+                                            ghost_counts.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  exclusive_sum(ghost_counts.data(), ghost_offsets32.data(), blocks);
+  const uint32_t ghosts = ghost_offsets32.get(blocks);
+  DeviceBuffer<uint64_t> ghost_offsets(blocks);
+  {
+    std::vector<uint32_t> h(blocks);
+    ghost_offsets32.download(h.data(), blocks);  // small: one word per block
+    std::vector<uint64_t> h64(h.begin(), h.end());
+    ghost_offsets.upload(h64.data(), blocks);
+  }
+  DeviceBuffer<uint64_t> march_keys(std::size_t(blocks) + ghosts);
+  MENISCUS_CUDA_CHECK(cudaMemcpy(march_keys.data(), field.keys.data(), blocks * sizeof(uint64_t), cudaMemcpyDeviceToDevice));
+  ghost_kernel<<<blocks_for(blocks), 256>>>(field.keys.data(), blocks, masks.data(), cells, full, ghost_offsets.data(),
+                                            march_keys.data() + blocks, nullptr);
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  sort_keys(march_keys, std::size_t(blocks) + ghosts);
+  const std::size_t march_blocks = unique_sorted(march_keys, std::size_t(blocks) + ghosts);
+
+  // Count, scan, write.
+  const std::size_t slots = march_blocks * std::size_t(cells);
+  DeviceBuffer<uint64_t> counts(slots), offsets(slots + 1);
+  const unsigned threads = unsigned(cells < 128 ? cells : 128);
+  auto march = [&](uint64_t* c, const uint64_t* o, uint64_t* out) {
+    if (a15)
+      march_kernel<true><<<unsigned(march_blocks), threads>>>(march_keys.data(), field.keys.data(), blocks, masks.data(),
+                                                              n, extractor, c, o, out);
+    else
+      march_kernel<false><<<unsigned(march_blocks), threads>>>(march_keys.data(), field.keys.data(), blocks,
+                                                               masks.data(), n, extractor, c, o, out);
+    MENISCUS_CUDA_CHECK_LAUNCH();
+  };
+  march(counts.data(), nullptr, nullptr);
+  exclusive_sum(counts.data(), offsets.data(), slots);
+  const uint64_t triangles = offsets.get(slots);
+  const uint64_t corners_n = 3 * triangles;
+  if (corners_n >= uint64_t(kNotFound))
+    throw ResourceError("extract_surface (cuda): the mesh would need 2^32 or more triangle corners");
+  DeviceBuffer<uint64_t> corners(corners_n);
+  march(nullptr, offsets.data(), corners.data());
+  counts = {};
+  offsets = {};
+  masks = {};
+
+  // Weld: stable sort of (edge key, corner index); run heads become vertices in key order.
+  DeviceBuffer<uint32_t> corner_index(corners_n);
+  index_kernel<<<blocks_for(corners_n), 256>>>(corner_index.data(), corners_n);
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  sort_pairs(corners, corner_index, corners_n, 0, 63);
+  DeviceBuffer<uint32_t> heads(corners_n), vertex_of(corners_n + 1);
+  weld_heads_kernel<<<blocks_for(corners_n), 256>>>(corners.data(), corners_n, heads.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  exclusive_sum(heads.data(), vertex_of.data(), corners_n);
+  const uint32_t nv = corners_n == 0 ? 0 : vertex_of.get(corners_n);
+  DeviceBuffer<uint64_t> vertex_keys(nv);
+  mesh.triangles.resize(corners_n);
+  weld_scatter_kernel<<<blocks_for(corners_n), 256>>>(corners.data(), corner_index.data(), heads.data(),
+                                                      vertex_of.data(), corners_n, mesh.triangles.data(),
+                                                      vertex_keys.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  mesh.vertices.resize(nv);
+  vertex_position_kernel<<<blocks_for(nv), 256>>>(vertex_keys.data(), nv, field.view(), a15, field.lattice.cell_size,
+                                                  iso, mesh.vertices.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  mesh.vertex_count = nv;
+  mesh.triangle_count = triangles;
+  DeviceBuffer<unsigned long long> repeated(1);
+  repeated.zero();
+  repeated_kernel<<<blocks_for(triangles), 256>>>(mesh.triangles.data(), triangles, repeated.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  // Unreachable for the marching stages (a triangle's corners lie on distinct edges); the CPU
+  // weld drops such triangles, this backend hands the job back to the CPU instead.
+  if (repeated.get(0) != 0)
+    throw ResourceError("extract_surface (cuda): the weld produced triangles with a repeated vertex");
+  return mesh;
+}
+
+// --- small interior voids (mesh/voids.cpp) ---------------------------------------------------------
+
+namespace {
+
+__device__ uint32_t find_root(uint32_t* parent, uint32_t x) {
+  while (parent[x] != x) x = parent[x];
+  return x;
+}
+
+/// Hooks the roots of each triangle's corners onto the smallest (min-label connected components).
+__global__ void hook_kernel(const uint32_t* tris, uint64_t nt, uint32_t* parent, int* changed) {
+  for (uint64_t t = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; t < nt; t += uint64_t(gridDim.x) * blockDim.x) {
+    uint32_t r[3];
+    for (int k = 0; k < 3; ++k) r[k] = find_root(parent, tris[3 * t + k]);
+    uint32_t m = r[0] < r[1] ? r[0] : r[1];
+    m = m < r[2] ? m : r[2];
+    for (int k = 0; k < 3; ++k)
+      if (r[k] != m) {
+        atomicMin(&parent[r[k]], m);
+        *changed = 1;
+      }
+  }
+}
+
+__global__ void compress_kernel(uint32_t* parent, uint64_t nv) {
+  for (uint64_t v = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; v < nv; v += uint64_t(gridDim.x) * blockDim.x)
+    parent[v] = find_root(parent, uint32_t(v));
+}
+
+__global__ void init_parent_kernel(uint32_t* parent, uint64_t nv) {
+  for (uint64_t v = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; v < nv; v += uint64_t(gridDim.x) * blockDim.x)
+    parent[v] = uint32_t(v);
+}
+
+__global__ void volume_kernel(const uint32_t* tris, uint64_t nt, const Vec3f* x, const uint32_t* root, double* volume,
+                              uint8_t* has) {
+  for (uint64_t t = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; t < nt; t += uint64_t(gridDim.x) * blockDim.x) {
+    const Vec3f a = x[tris[3 * t]], b = x[tris[3 * t + 1]], c = x[tris[3 * t + 2]];
+    const uint32_t r = root[tris[3 * t]];
+    const double v = (double(a.x) * (double(b.y) * c.z - double(b.z) * c.y) -
+                      double(a.y) * (double(b.x) * c.z - double(b.z) * c.x) +
+                      double(a.z) * (double(b.x) * c.y - double(b.y) * c.x)) / 6.0;
+    atomicAdd(&volume[r], v);
+    has[r] = 1;
+  }
+}
+
+__global__ void drop_kernel(const uint32_t* root, const double* volume, const uint8_t* has, uint64_t nv,
+                            double max_volume, uint8_t* drop, unsigned long long* removed) {
+  for (uint64_t v = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; v < nv; v += uint64_t(gridDim.x) * blockDim.x) {
+    const bool d = root[v] == v && has[v] && volume[v] <= 0.0 && volume[v] > -max_volume;
+    drop[v] = d ? 1 : 0;
+    if (d) atomicAdd(removed, 1ull);
+  }
+}
+
+__global__ void keep_flags_kernel(const uint32_t* tris, uint64_t nt, const uint32_t* root, const uint8_t* drop,
+                                  uint32_t* keep, uint32_t* used) {
+  for (uint64_t t = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; t < nt; t += uint64_t(gridDim.x) * blockDim.x) {
+    const bool k = !drop[root[tris[3 * t]]];
+    keep[t] = k ? 1u : 0u;
+    if (k)
+      for (int j = 0; j < 3; ++j) used[tris[3 * t + j]] = 1u;
+  }
+}
+
+__global__ void compact_kernel(const uint32_t* tris, uint64_t nt, const uint32_t* keep, const uint32_t* tri_pos,
+                               const uint32_t* used, const uint32_t* vertex_pos, const Vec3f* x, uint64_t nv,
+                               uint32_t* new_tris, Vec3f* new_x) {
+  for (uint64_t i = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; i < nt || i < nv;
+       i += uint64_t(gridDim.x) * blockDim.x) {
+    if (i < nt && keep[i])
+      for (int j = 0; j < 3; ++j) new_tris[3 * uint64_t(tri_pos[i]) + j] = vertex_pos[tris[3 * i + j]];
+    if (i < nv && used[i]) new_x[vertex_pos[i]] = x[i];
+  }
+}
+
+}  // namespace
+
+std::size_t remove_small_voids(DeviceMesh& mesh, double max_volume) {
+  const uint64_t nv = mesh.vertex_count, nt = mesh.triangle_count;
+  if (nv == 0 || nt == 0) return 0;
+  DeviceBuffer<uint32_t> parent(nv);
+  init_parent_kernel<<<blocks_for(nv), 256>>>(parent.data(), nv);
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  DeviceBuffer<int> changed(1);
+  for (;;) {
+    changed.zero();
+    hook_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, parent.data(), changed.data());
+    MENISCUS_CUDA_CHECK_LAUNCH();
+    compress_kernel<<<blocks_for(nv), 256>>>(parent.data(), nv);
+    MENISCUS_CUDA_CHECK_LAUNCH();
+    if (changed.get(0) == 0) break;
+  }
+  DeviceBuffer<double> volume(nv);
+  DeviceBuffer<uint8_t> has(nv), drop(nv);
+  volume.zero();
+  has.zero();
+  volume_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, mesh.vertices.data(), parent.data(), volume.data(),
+                                         has.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  DeviceBuffer<unsigned long long> removed(1);
+  removed.zero();
+  drop_kernel<<<blocks_for(nv), 256>>>(parent.data(), volume.data(), has.data(), nv, max_volume, drop.data(),
+                                       removed.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  const std::size_t count = std::size_t(removed.get(0));
+  if (count == 0) return 0;
+  DeviceBuffer<uint32_t> keep(nt), tri_pos(nt + 1), used(nv), vertex_pos(nv + 1);
+  used.zero();
+  keep_flags_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, parent.data(), drop.data(), keep.data(),
+                                             used.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  exclusive_sum(keep.data(), tri_pos.data(), nt);
+  exclusive_sum(used.data(), vertex_pos.data(), nv);
+  const uint32_t new_nt = tri_pos.get(nt), new_nv = vertex_pos.get(nv);
+  DeviceBuffer<uint32_t> new_tris(3 * std::size_t(new_nt));
+  DeviceBuffer<Vec3f> new_x(new_nv);
+  compact_kernel<<<blocks_for(nt > nv ? nt : nv), 256>>>(mesh.triangles.data(), nt, keep.data(), tri_pos.data(),
+                                                         used.data(), vertex_pos.data(), mesh.vertices.data(), nv,
+                                                         new_tris.data(), new_x.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  mesh.triangles = std::move(new_tris);
+  mesh.vertices = std::move(new_x);
+  mesh.triangle_count = new_nt;
+  mesh.vertex_count = new_nv;
+  return count;
+}
+
+}  // namespace meniscus::cuda

@@ -1,0 +1,117 @@
+// meniscus — reorder_vertices_spatially() on the device (mesh/vertex_order.cpp): the same Z-order
+// keys (vertex_order_impl.hpp), the same stable sorts, so both backends number the vertices and
+// order the triangles identically.
+#include <algorithm>
+#include <cstring>
+
+#include "cuda/primitives.hpp"
+#include "cuda/stages_cuda.hpp"
+#include "mesh/vertex_order_impl.hpp"
+
+namespace meniscus::cuda {
+
+namespace {
+
+#define MENISCUS_GRID_STRIDE(i, n) \
+  for (uint64_t i = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; i < (n); i += uint64_t(gridDim.x) * blockDim.x)
+
+/// An unsigned integer with the order of the float (exact, so atomic min/max give the CPU's box).
+__device__ uint32_t ordered_bits(float f) {
+  const uint32_t u = __float_as_uint(f);
+  return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
+}
+float from_ordered_bits(uint32_t u) {
+  const uint32_t bits = (u & 0x80000000u) ? (u & 0x7FFFFFFFu) : ~u;
+  float f;
+  std::memcpy(&f, &bits, sizeof f);
+  return f;
+}
+
+__global__ void box_kernel(const Vec3f* x, uint64_t n, uint32_t* box) {
+  MENISCUS_GRID_STRIDE(i, n) {
+    const Vec3f p = x[i];
+    atomicMin(&box[0], ordered_bits(p.x));
+    atomicMin(&box[1], ordered_bits(p.y));
+    atomicMin(&box[2], ordered_bits(p.z));
+    atomicMax(&box[3], ordered_bits(p.x));
+    atomicMax(&box[4], ordered_bits(p.y));
+    atomicMax(&box[5], ordered_bits(p.z));
+  }
+}
+
+__global__ void morton_kernel(const Vec3f* x, uint64_t n, Vec3f lo, float scale, uint32_t* keys, uint32_t* ids) {
+  MENISCUS_GRID_STRIDE(i, n) {
+    keys[i] = morton_key(x[i], lo, scale);
+    ids[i] = uint32_t(i);
+  }
+}
+
+__global__ void permute_vertices_kernel(const Vec3f* x, const uint32_t* old_of_new, uint64_t n, Vec3f* out,
+                                        uint32_t* new_of_old) {
+  MENISCUS_GRID_STRIDE(i, n) {
+    out[i] = x[old_of_new[i]];
+    new_of_old[old_of_new[i]] = uint32_t(i);
+  }
+}
+
+__global__ void remap_triangles_kernel(uint32_t* tris, const uint32_t* new_of_old, uint64_t nt, uint32_t* keys,
+                                       uint32_t* ids) {
+  MENISCUS_GRID_STRIDE(t, nt) {
+    uint32_t* tri = tris + 3 * t;
+    const uint32_t a = new_of_old[tri[0]], b = new_of_old[tri[1]], c = new_of_old[tri[2]];
+    tri[0] = a;
+    tri[1] = b;
+    tri[2] = c;
+    const uint32_t ab = a < b ? a : b;
+    keys[t] = ab < c ? ab : c;
+    ids[t] = uint32_t(t);
+  }
+}
+
+__global__ void gather_triangles_kernel(const uint32_t* tris, const uint32_t* order, uint64_t nt, uint32_t* out) {
+  MENISCUS_GRID_STRIDE(t, nt) {
+    const uint32_t* src = tris + 3 * uint64_t(order[t]);
+    out[3 * t] = src[0];
+    out[3 * t + 1] = src[1];
+    out[3 * t + 2] = src[2];
+  }
+}
+
+}  // namespace
+
+void reorder_vertices_spatially(DeviceMesh& mesh) {
+  const std::size_t nv = mesh.vertex_count, nt = mesh.triangle_count;
+  if (nv < 2) return;
+  DeviceBuffer<uint32_t> box(6);
+  const uint32_t init[6] = {0xFFFFFFFFu, 0xFFFFFFFFu, 0xFFFFFFFFu, 0, 0, 0};
+  box.upload(init, 6);
+  box_kernel<<<blocks_for(nv), 256>>>(mesh.vertices.data(), nv, box.data());
+  MENISCUS_CUDA_CHECK(cudaGetLastError());
+  uint32_t host_box[6];
+  MENISCUS_CUDA_CHECK(cudaMemcpy(host_box, box.data(), sizeof host_box, cudaMemcpyDeviceToHost));
+  const Vec3f lo{from_ordered_bits(host_box[0]), from_ordered_bits(host_box[1]), from_ordered_bits(host_box[2])};
+  const Vec3f hi{from_ordered_bits(host_box[3]), from_ordered_bits(host_box[4]), from_ordered_bits(host_box[5])};
+  const float scale = morton_scale(lo, hi);
+
+  DeviceBuffer<uint32_t> keys(std::max(nv, nt)), ids(std::max(nv, nt)), new_of_old(nv);
+  morton_kernel<<<blocks_for(nv), 256>>>(mesh.vertices.data(), nv, lo, scale, keys.data(), ids.data());
+  MENISCUS_CUDA_CHECK(cudaGetLastError());
+  sort_pairs(keys, ids, nv, 0, 30);  // stable: ties keep the old order, as on the CPU
+  DeviceBuffer<Vec3f> sorted(nv);
+  permute_vertices_kernel<<<blocks_for(nv), 256>>>(mesh.vertices.data(), ids.data(), nv, sorted.data(),
+                                                   new_of_old.data());
+  MENISCUS_CUDA_CHECK(cudaGetLastError());
+  mesh.vertices = std::move(sorted);
+  if (nt == 0) return;
+
+  remap_triangles_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), new_of_old.data(), nt, keys.data(),
+                                                  ids.data());
+  MENISCUS_CUDA_CHECK(cudaGetLastError());
+  sort_pairs(keys, ids, nt, 0, 32);
+  DeviceBuffer<uint32_t> tris(3 * nt);
+  gather_triangles_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), ids.data(), nt, tris.data());
+  MENISCUS_CUDA_CHECK(cudaGetLastError());
+  mesh.triangles = std::move(tris);
+}
+
+}  // namespace meniscus::cuda

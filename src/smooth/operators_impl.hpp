@@ -1,0 +1,143 @@
+// meniscus — the per-vertex rows of the smoothing operators (Williams 2008 §4; Desbrun et al. 1999
+// for the cotangent form) over raw CSR arrays, written once for the CPU (operators.cpp, smooth.cpp)
+// and the CUDA backend, in the same order of float operations. Plus the fixed-tree double sum
+// that decides the B sweeps' energy guard on both backends.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "meniscus/vec.hpp"
+#include "smooth/cotangent_impl.hpp"
+
+namespace meniscus {
+
+/// CSR rows of a mesh: neighbours of i at neighbors[offsets[i] .. offsets[i+1]) (sorted), incident
+/// triangles at tri_ids[tri_offsets[i] .. tri_offsets[i+1]) (ascending); triangles as index triples.
+struct MeshRows {
+  const uint32_t* offsets;
+  const uint32_t* neighbors;
+  const uint32_t* tri_offsets;
+  const uint32_t* tri_ids;
+  const uint32_t* triangles;  ///< 3 per triangle
+};
+
+/// Mean of i's neighbours (x_i itself for an isolated vertex).
+MENISCUS_HD inline Vec3f neighbour_mean_row(const uint32_t* offsets, const uint32_t* neighbors, const Vec3f* x,
+                                            uint32_t i) {
+  const uint32_t b = offsets[i], e = offsets[i + 1];
+  if (b == e) return x[i];
+  Vec3f sum{0, 0, 0};
+  for (uint32_t k = b; k < e; ++k) sum += x[neighbors[k]];
+  return sum / float(e - b);
+}
+
+/// (W x)_i = W_ii x_i + Σ_j W_ij x_j.
+MENISCUS_HD inline Vec3f apply_w_row(const uint32_t* offsets, const uint32_t* neighbors, const float* w,
+                                     const float* diag, const Vec3f* x, uint32_t i) {
+  Vec3f acc = x[i] * diag[i];
+  for (uint32_t k = offsets[i]; k < offsets[i + 1]; ++k) acc += x[neighbors[k]] * w[k];
+  return acc;
+}
+
+/// (B x)_i given wx = W x: Σ_k W_ik / D_k (W x)_k over i and its ring.
+MENISCUS_HD inline Vec3f bilaplacian_row_from_wx(const uint32_t* offsets, const uint32_t* neighbors, const float* w,
+                                                 const float* diag, const float* area, const Vec3f* wx, uint32_t i) {
+  Vec3f out = wx[i] * (diag[i] / area[i]);
+  for (uint32_t e = offsets[i]; e < offsets[i + 1]; ++e) {
+    const uint32_t k = neighbors[e];
+    out += wx[k] * (w[e] / area[k]);
+  }
+  return out;
+}
+
+/// Row i of W (w[offsets[i] ..), which must be zero on entry) from i's incident triangles; returns
+/// W_ii = −Σ_j W_ij in *diag and the third of the clamped incident area in *area.
+MENISCUS_HD inline void cotan_row(const MeshRows& m, const Vec3f* x, uint32_t i, float* w, float* diag, float* area) {
+  const uint32_t row_begin = m.offsets[i], row_end = m.offsets[i + 1];
+  float* wrow = w + row_begin;
+  float a = 0;
+  for (uint32_t k = m.tri_offsets[i]; k < m.tri_offsets[i + 1]; ++k) {
+    const uint32_t* t = m.triangles + 3 * std::size_t(m.tri_ids[k]);
+    const int c = t[0] == i ? 0 : (t[1] == i ? 1 : 2);
+    const uint32_t j = t[(c + 1) % 3], l = t[(c + 2) % 3];
+    const Vec3f pi = x[i], pj = x[j], pl = x[l];
+    // Edge (i, j) is opposite the angle at l; edge (i, l) is opposite the angle at j.
+    const float cot_l = clamped_cotangent(pl, pi, pj);
+    const float cot_j = clamped_cotangent(pj, pi, pl);
+    auto at = [&](uint32_t v) {  // lower_bound in the sorted row
+      uint32_t lo = row_begin, hi = row_end;
+      while (lo < hi) {
+        const uint32_t mid = lo + (hi - lo) / 2;
+        if (m.neighbors[mid] < v) lo = mid + 1; else hi = mid;
+      }
+      return lo - row_begin;
+    };
+    wrow[at(j)] += cot_l;
+    wrow[at(l)] += cot_j;
+    a += clamped_area(pi, pj, pl);
+  }
+  float sum = 0;
+  for (uint32_t k = 0; k < row_end - row_begin; ++k) sum += wrow[k];
+  *diag = -sum;
+  *area = a / 3.0f;
+}
+
+/// B_ii = W_ii² / D_i + Σ_k W_ik² / D_k; a unit diagonal for an isolated or broken row.
+MENISCUS_HD inline float bilaplacian_diagonal_row(const uint32_t* offsets, const uint32_t* neighbors, const float* w,
+                                                  const float* diag, const float* area, uint32_t i) {
+  float b = diag[i] * diag[i] / area[i];
+  for (uint32_t k = offsets[i]; k < offsets[i + 1]; ++k) {
+    const float wik = w[k];
+    b += wik * wik / area[neighbors[k]];
+  }
+  return b > 0 && b - b == 0.0f ? b : 1.0f;
+}
+
+/// One vertex's term of the energy xᵀBx = Σ_k |(W x)_k|² / D_k.
+MENISCUS_HD inline double energy_term(Vec3f wx, float area) { return double(length2(wx)) / double(area); }
+
+// --- the fixed summation tree ------------------------------------------------------------------
+// A sum whose value decides something (the energy guard halves ω when the energy rises) must come
+// out the same on both backends. The tree is the one of tbb::parallel_deterministic_reduce over
+// blocked_range(0, n, grain): a range larger than the grain splits at begin + (end − begin)/2;
+// a leaf is summed serially from 0; a node is left + right. The CPU sums the leaves in parallel,
+// the GPU one leaf per thread; both then combine the leaf sums with sum_tree_combine.
+
+inline constexpr std::size_t kSumTreeGrain = 4096;
+
+/// The leaf boundaries of the tree over [0, n): leaves [b[k], b[k+1]), in order (b.front() = 0,
+/// b.back() = n; a single leaf [0, 0) for n = 0).
+inline std::vector<std::size_t> sum_tree_leaves(std::size_t n, std::size_t grain = kSumTreeGrain) {
+  std::vector<std::size_t> bounds{0};
+  // Iterative in-order walk of the split tree.
+  std::vector<std::pair<std::size_t, std::size_t>> stack{{0, n}};
+  while (!stack.empty()) {
+    const auto [b, e] = stack.back();
+    stack.pop_back();
+    if (e - b > grain) {
+      const std::size_t mid = b + (e - b) / 2;
+      stack.push_back({mid, e});
+      stack.push_back({b, mid});
+    } else {
+      bounds.push_back(e);
+    }
+  }
+  return bounds;
+}
+
+/// Combines the leaf sums (in leaf order) of the tree over [begin, end) like the reduction does:
+/// `next` is the index of the first leaf of this range, advanced past it.
+MENISCUS_HD inline double sum_tree_combine(std::size_t begin, std::size_t end, std::size_t grain, const double* leaves,
+                                           std::size_t* next) {
+  if (end - begin > grain) {
+    const std::size_t mid = begin + (end - begin) / 2;
+    const double left = sum_tree_combine(begin, mid, grain, leaves, next);
+    const double right = sum_tree_combine(mid, end, grain, leaves, next);
+    return left + right;
+  }
+  return leaves[(*next)++];
+}
+
+}  // namespace meniscus

@@ -1,0 +1,309 @@
+// The backend choice and the CUDA backend: the CPU side of the code both backends share (the
+// fixed summation tree, the marching kernels with explicit tables), the dispatch without a device
+// (auto falls back with a warning, cuda is refused), and — with a CUDA device — the device stages
+// against the CPU's and full-pipeline parity on synthetic blocks and the real frames. Device
+// tests skip visibly ("skipped: no CUDA device") where there is no build or no device.
+#include <gtest/gtest.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <random>
+
+#include "extract/marching_impl.hpp"
+#include "meniscus/backend.hpp"
+#include "meniscus/errors.hpp"
+#include "meniscus/io.hpp"
+#include "meniscus/reconstruct.hpp"
+#include "smooth/operators_impl.hpp"
+#include "support/io_helpers.hpp"
+#include "support/test_support.hpp"
+
+#if defined(MENISCUS_HAS_CUDA)
+#include "cuda/stages_cuda.hpp"
+#include "extract/extract.hpp"
+#include "field/distance_field.hpp"
+#include "grid/hash_grid.hpp"
+#endif
+
+namespace meniscus {
+namespace {
+
+bool have_cuda_device() { return !cuda_devices().empty(); }
+
+#define MENISCUS_REQUIRE_CUDA_DEVICE() \
+  if (!have_cuda_device()) GTEST_SKIP() << "skipped: no CUDA device"
+
+// --- shared code, CPU side ------------------------------------------------------------------------
+
+TEST(SumTree, MatchesTbbDeterministicReduceBitForBit) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1e3);
+  for (std::size_t n : {std::size_t(0), std::size_t(1), std::size_t(4095), std::size_t(4096), std::size_t(4097),
+                        std::size_t(12345), std::size_t(100000), std::size_t(1 << 20)}) {
+    std::vector<double> v(n);
+    for (double& x : v) x = u(rng);
+    const double reference = tbb::parallel_deterministic_reduce(
+        tbb::blocked_range<std::size_t>(0, n, kSumTreeGrain), 0.0,
+        [&](const auto& r, double e) {
+          for (std::size_t k = r.begin(); k != r.end(); ++k) e += v[k];
+          return e;
+        },
+        std::plus<>());
+    const std::vector<std::size_t> leaves = sum_tree_leaves(n);
+    ASSERT_EQ(leaves.front(), 0u);
+    ASSERT_EQ(leaves.back(), n);
+    std::vector<double> sums;
+    for (std::size_t l = 0; l + 1 < leaves.size(); ++l) {
+      ASSERT_LE(leaves[l + 1] - leaves[l], kSumTreeGrain);
+      double s = 0.0;
+      for (std::size_t k = leaves[l]; k < leaves[l + 1]; ++k) s += v[k];
+      sums.push_back(s);
+    }
+    std::size_t next = 0;
+    const double tree = sum_tree_combine(0, n, kSumTreeGrain, sums.data(), &next);
+    EXPECT_EQ(next, sums.size());
+    EXPECT_EQ(tree, reference) << "n = " << n;
+  }
+}
+
+TEST(MarchingTables, ExplicitTablesGiveTheSameTrianglesAsTheConstexprOnes) {
+  const MarchingTables tables = host_marching_tables();
+  constexpr TileVertexLookup lookup = make_tile_vertex_lookup(6, 36);
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> bits(0, 255);
+  uint8_t masks[216];
+  for (int trial = 0; trial < 200; ++trial) {
+    for (uint8_t& m : masks) m = uint8_t(bits(rng));
+    const uint8_t* centre = masks + (1 * 6 + 1) * 6 + 1;
+    uint64_t a[3 * 46 * 2], b[3 * 46 * 2];
+    const uint32_t na = march_tile_cell(centre, lookup, 640, a);
+    const uint32_t nb = march_tile_cell(centre, lookup, tables.tet_cases, tables.a15_edges, 640, b);
+    ASSERT_EQ(na, nb);
+    for (uint32_t k = 0; k < 3 * na; ++k) ASSERT_EQ(a[k], b[k]);
+    uint64_t c[15], d[15];
+    ASSERT_EQ(march_cube_cell(centre, 6, 36, 64, c), march_cube_cell(centre, 6, 36, tables, 64, d));
+    uint64_t e[36], f[36];
+    ASSERT_EQ(march_kuhn_cell(centre, 6, 36, 64, e), march_kuhn_cell(centre, 6, 36, tables, 64, f));
+  }
+}
+
+// --- dispatch ---------------------------------------------------------------------------------------
+
+TEST(Backend, ParsesAndPrintsTheBackendNames) {
+  EXPECT_EQ(parse_backend("auto"), Backend::automatic);
+  EXPECT_EQ(parse_backend("cpu"), Backend::cpu);
+  EXPECT_EQ(parse_backend("cuda"), Backend::cuda);
+  EXPECT_STREQ(to_string(Backend::automatic), "auto");
+  EXPECT_THROW(parse_backend("gpu"), InvalidParameter);
+}
+
+TEST(Backend, NoDeviceListSaysWhy) {
+  std::string why;
+  const std::vector<CudaDeviceInfo> devices = cuda_devices(&why);
+  if (devices.empty()) {
+    EXPECT_FALSE(why.empty());
+    if (!cuda_built()) {
+      EXPECT_EQ(why, "built without CUDA");
+    }
+  } else {
+    for (const CudaDeviceInfo& d : devices) {
+      EXPECT_FALSE(d.name.empty());
+      EXPECT_GT(d.major, 0);
+      EXPECT_GT(d.total_memory, 0u);
+    }
+  }
+}
+
+TEST(Backend, CpuBackendIsRecordedInTheStats) {
+  Params p;
+  p.spacing = 0.1;
+  p.backend = Backend::cpu;
+  const Result r = reconstruct(test::lattice_block(6, 6, 6, 0.1f), p);
+  EXPECT_EQ(r.stats.backend, "cpu");
+  EXPECT_NE(stats_to_json(r).find("\"backend\": \"cpu\""), std::string::npos);
+}
+
+TEST(Backend, WithoutADeviceCudaIsRefusedAndAutoFallsBack) {
+  if (have_cuda_device()) GTEST_SKIP() << "skipped: a CUDA device is present (this checks the no-device path)";
+  Params p;
+  p.spacing = 0.1;
+  p.backend = Backend::cuda;
+  const ParticleSet ps = test::lattice_block(6, 6, 6, 0.1f);
+  try {
+    reconstruct(ps, p);
+    FAIL() << "expected ResourceError";
+  } catch (const ResourceError& e) {
+    EXPECT_NE(std::string(e.what()).find("--backend cuda"), std::string::npos) << e.what();
+  }
+  p.backend = Backend::automatic;
+  const Result r = reconstruct(ps, p);
+  EXPECT_EQ(r.stats.backend, "cpu");
+  const bool warned = std::any_of(r.stats.warnings.begin(), r.stats.warnings.end(),
+                                  [](const std::string& w) { return w.find("backend auto") != std::string::npos; });
+  EXPECT_EQ(warned, cuda_built());  // a build without CUDA has nothing to fall back from
+}
+
+TEST(Backend, CliInfoAndBackendFlag) {
+  std::string out;
+  ASSERT_EQ(test::run_command(test::cli() + " info", &out), 0);
+  EXPECT_NE(out.find("cuda: "), std::string::npos) << out;
+  const test::TempDir tmp;
+  const std::string input = test::data_file("ply/cube_2366_particles.ply");
+  EXPECT_NE(test::run_command(test::cli() + " surface " + input + " -o " + tmp.file("m.ply") + " --backend gpu", &out), 0);
+  EXPECT_NE(out.find("gpu"), std::string::npos) << out;
+  if (have_cuda_device()) return;
+  EXPECT_NE(test::run_command(test::cli() + " surface " + input + " -o " + tmp.file("m.ply") + " --backend cuda", &out), 0);
+  EXPECT_NE(out.find("--backend cuda"), std::string::npos) << out;
+  EXPECT_FALSE(std::filesystem::exists(tmp.file("m.ply")));
+  ASSERT_EQ(test::run_command(test::cli() + " surface " + input + " -o " + tmp.file("m.ply") + " --backend cpu", &out), 0)
+      << out;
+}
+
+// --- parity (needs a device) ------------------------------------------------------------------------
+
+struct Comparison {
+  std::size_t vertices_cpu = 0, vertices_cuda = 0, triangles_cpu = 0, triangles_cuda = 0;
+  double max_difference = 0;  ///< over vertices, in world units
+  bool triangles_equal = false;
+};
+
+Comparison compare_backends(const ParticleSet& ps, Params p) {
+  Comparison c;
+  p.backend = Backend::cpu;
+  const Result cpu = reconstruct(ps, p);
+  p.backend = Backend::cuda;
+  const Result gpu = reconstruct(ps, p);
+  EXPECT_EQ(gpu.stats.backend, "cuda");
+  c.vertices_cpu = cpu.mesh.vertices.size();
+  c.vertices_cuda = gpu.mesh.vertices.size();
+  c.triangles_cpu = cpu.mesh.triangles.size();
+  c.triangles_cuda = gpu.mesh.triangles.size();
+  c.triangles_equal = cpu.mesh.triangles == gpu.mesh.triangles;
+  if (c.vertices_cpu == c.vertices_cuda)
+    for (std::size_t i = 0; i < c.vertices_cpu; ++i)
+      c.max_difference = std::max(c.max_difference, double(length(cpu.mesh.vertices[i] - gpu.mesh.vertices[i])));
+  return c;
+}
+
+void expect_parity(const Comparison& c, double h) {
+  EXPECT_EQ(c.vertices_cpu, c.vertices_cuda);
+  EXPECT_EQ(c.triangles_cpu, c.triangles_cuda);
+  EXPECT_TRUE(c.triangles_equal);
+  EXPECT_LE(c.max_difference, 1e-4 * h);
+}
+
+TEST(CudaParity, ExtractionOnlyGivesTheSameMesh) {
+  MENISCUS_REQUIRE_CUDA_DEVICE();
+  for (Extractor e : {Extractor::tiles, Extractor::cubes, Extractor::tetrahedra}) {
+    Params p;
+    p.spacing = 0.1;
+    p.extract = e;
+    p.steps_a = p.steps_b = p.steps_free = 0;
+    const Comparison c = compare_backends(test::lattice_block(12, 10, 8, 0.1f, 0.1f), p);
+    expect_parity(c, 0.05);
+    EXPECT_EQ(c.max_difference, 0.0) << to_string(e) << ": the field and the weld are bit-identical";
+  }
+}
+
+TEST(CudaParity, FullScheduleOnJitteredBlocksBothSolvers) {
+  MENISCUS_REQUIRE_CUDA_DEVICE();
+  for (SmoothingSolver s : {SmoothingSolver::gauss_seidel, SmoothingSolver::jacobi}) {
+    Params p;
+    p.spacing = 0.1;
+    p.solver = s;
+    p.erode = 0.01;
+    expect_parity(compare_backends(test::lattice_block(14, 12, 10, 0.1f, 0.1f, 5), p), 0.05);
+  }
+}
+
+TEST(CudaParity, TransferredAttributesMatch) {
+  MENISCUS_REQUIRE_CUDA_DEVICE();
+  ParticleSet ps = test::lattice_block(10, 10, 10, 0.1f, 0.1f);
+  Attribute a{"speed", 1, false, {}};
+  for (std::size_t i = 0; i < ps.size(); ++i) a.values.push_back(float(i % 17));
+  ps.attributes.push_back(a);
+  Params p;
+  p.spacing = 0.1;
+  p.transfer = {"speed"};
+  p.backend = Backend::cpu;
+  const Result cpu = reconstruct(ps, p);
+  p.backend = Backend::cuda;
+  const Result gpu = reconstruct(ps, p);
+  ASSERT_EQ(cpu.mesh.attributes.size(), 1u);
+  ASSERT_EQ(gpu.mesh.attributes.size(), 1u);
+  ASSERT_EQ(cpu.mesh.attributes[0].values.size(), gpu.mesh.attributes[0].values.size());
+  for (std::size_t i = 0; i < cpu.mesh.attributes[0].values.size(); ++i)
+    EXPECT_NEAR(cpu.mesh.attributes[0].values[i], gpu.mesh.attributes[0].values[i], 1e-4);
+}
+
+#if defined(MENISCUS_HAS_CUDA)
+// --- device stages against the CPU's (needs a device) --------------------------------------------------
+
+TEST(CudaStages, GridFieldAndExtractionMatchTheCpu) {
+  MENISCUS_REQUIRE_CUDA_DEVICE();
+  const ParticleSet ps = test::lattice_block(11, 9, 7, 0.1f, 0.1f, 3);
+  const float r_outer = 0.1f, h = 0.05f, band = r_outer + 2 * h;
+  const HashGrid cpu_grid(ps.positions, 2 * r_outer);
+  cuda::DeviceBuffer<Vec3f> points;
+  points.upload(ps.positions.data(), ps.size());
+  const cuda::DeviceGrid grid = cuda::build_grid(points, uint32_t(ps.size()), 2 * r_outer, cpu_grid.cell_min(),
+                                                 cpu_grid.cell_max());
+  ASSERT_EQ(grid.cells, cpu_grid.cell_keys().size());
+  std::vector<uint32_t> order(ps.size());
+  grid.order.download(order.data(), order.size());
+  EXPECT_TRUE(std::equal(order.begin(), order.end(), cpu_grid.order().begin()));
+  std::vector<uint32_t> starts(grid.cells + 1);
+  grid.starts.download(starts.data(), starts.size());
+  EXPECT_TRUE(std::equal(starts.begin(), starts.end(), cpu_grid.cell_starts().begin()));
+
+  for (Extractor e : {Extractor::tiles, Extractor::cubes}) {
+    SampleLattice lattice;
+    lattice.kind = e == Extractor::tiles ? SampleLattice::Kind::a15 : SampleLattice::Kind::cubic;
+    lattice.cell_size = e == Extractor::tiles ? 2 * h : h;
+    const SparseField cpu_field = distance_field(cpu_grid, lattice, band, band_blocks(cpu_grid, lattice, band));
+    std::size_t blocks = 0;
+    cuda::DeviceBuffer<uint64_t> keys = cuda::band_blocks(grid, lattice, band, &blocks);
+    ASSERT_EQ(blocks, cpu_field.block_count());
+    const cuda::DeviceField field = cuda::distance_field(grid, lattice, band, std::move(keys), blocks);
+    std::vector<float> values(blocks * kBlockSamples);
+    field.values.download(values.data(), values.size());
+    for (std::size_t b = 0; b < blocks; ++b)
+      for (int k = 0; k < kBlockSamples; ++k)
+        ASSERT_TRUE(test::same_bits(values[b * kBlockSamples + std::size_t(k)], cpu_field.block_values(b)[std::size_t(k)]))
+            << "block " << b << " sample " << k;
+    const ExtractResult cpu_mesh = extract_surface(cpu_field, r_outer, e);
+    const cuda::DeviceMesh mesh = cuda::extract_surface(field, r_outer, e);
+    ASSERT_EQ(mesh.vertex_count, cpu_mesh.mesh.vertices.size());
+    ASSERT_EQ(mesh.triangle_count, cpu_mesh.mesh.triangles.size());
+    std::vector<uint32_t> tris(3 * mesh.triangle_count);
+    mesh.triangles.download(tris.data(), tris.size());
+    EXPECT_TRUE(std::equal(tris.begin(), tris.end(), cpu_mesh.mesh.triangles.data()->data()));
+  }
+}
+#endif
+
+class CudaParityFrame : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(CudaParityFrame, FullScheduleMatchesTheCpu) {
+  MENISCUS_REQUIRE_CUDA_DEVICE();
+  const ParticleSet ps = read_particles(test::data_file("ply/" + GetParam()));
+  Params p;
+  p.spacing = estimate_spacing(ps);
+  expect_parity(compare_backends(ps, p), p.spacing / 2);
+}
+
+INSTANTIATE_TEST_SUITE_P(Frames, CudaParityFrame,
+                         ::testing::Values("dam_break_frame_23_24389_particles.ply", "bunny_frame_14_7705_particles.ply",
+                                           "cube_2366_particles.ply", "double_dam_break_frame_26_4732_particles.ply",
+                                           "free_particles_1000_particles.ply"),
+                         [](const auto& test_param) {
+                           std::string name = test_param.param.substr(0, test_param.param.find('.'));
+                           std::replace(name.begin(), name.end(), '-', '_');
+                           return name;
+                         });
+
+}  // namespace
+}  // namespace meniscus

@@ -299,7 +299,7 @@ def particle_system_particles(obj, depsgraph, settings):
     particles.foreach_get("location", positions)
     state = np.zeros(n, np.int32)
     particles.foreach_get("alive_state", state)
-    alive_value = particles.bl_rna.properties["alive_state"].enum_items["ALIVE"].value if n else 0
+    alive_value = bpy.types.Particle.bl_rna.properties["alive_state"].enum_items["ALIVE"].value
     alive = state == alive_value
     if not np.any(alive):
         raise RuntimeError(f"particle system '{system.name}' has no alive particles at this frame")

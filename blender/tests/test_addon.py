@@ -197,8 +197,40 @@ def check_panel_draws():
         assert name in prefs.bl_rna.properties
 
 
+def surface_particle_system():
+    """The alive particles of an emitter's particle system (evaluated at frame 6), surfaced with
+    their velocity; the reference gets the same particles read back from the depsgraph."""
+    bpy.context.scene.frame_set(1)
+    bpy.ops.mesh.primitive_cube_add(size=0.5, location=(0.0, 0.0, 3.0))
+    emitter = bpy.context.active_object
+    emitter.name = "emitter"
+    emitter.modifiers.new("particles", "PARTICLE_SYSTEM")
+    particle_settings = emitter.particle_systems[0].settings
+    particle_settings.count = 400
+    particle_settings.frame_start, particle_settings.frame_end = 1, 4
+    particle_settings.lifetime = 100
+    bpy.context.scene.frame_set(6)
+    settings = bpy.context.scene.meniscus
+    settings.source = "PARTICLES"
+    settings.transfer_velocity, settings.transfer_color = True, False
+    settings.erode = 0.0
+    settings.result_name = ""
+    assert bpy.ops.meniscus.surface() == {"FINISHED"}, settings.last_report
+    result = bpy.data.objects["emitter surface"]
+    counts = assert_watertight(result)
+    positions, attributes = addon.particle_system_particles(emitter, bpy.context.evaluated_depsgraph_get(), settings)
+    assert 50 < len(positions) <= 400 and attributes["velocity"].shape == positions.shape
+    assert abs(positions[:, 2].mean() - 3.0) < 1.0, "particle positions must be in world space (around z = 3)"
+    expected = reference_counts(positions, attributes, addon.params_from_settings(settings))
+    assert counts == expected, f"particle system: operator gave {counts}, the reference {expected}"
+    assert "velocity" in result.data.attributes
+    print(f"particle system: {settings.last_report}")
+    bpy.context.scene.frame_set(1)
+
+
 check_panel_draws()
 with tempfile.TemporaryDirectory(prefix="meniscus-blender-") as tmp:
+    surface_particle_system()
     surface_point_mesh()
     surface_sequence_on_frame_change(tmp)
 

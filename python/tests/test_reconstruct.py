@@ -121,6 +121,32 @@ def test_the_gil_is_released_while_reconstructing(data):
     assert "normals" not in first_sight[0], f"the poller only ran after reconstruct: {first_sight[0]}"
 
 
+def test_ctrl_c_cancels_at_the_next_stage(data):
+    """KeyboardInterrupt (here from _thread.interrupt_main, as Ctrl-C) stops reconstruct at the
+    next stage boundary, without a progress callback of one's own."""
+    import _thread
+
+    particles = meniscus.read_particles(data / FRAME)
+    progress = {}
+    done = threading.Event()
+
+    def interrupter():
+        while not done.is_set():
+            if "grid" in progress:
+                _thread.interrupt_main()
+                return
+
+    thread = threading.Thread(target=interrupter)
+    thread.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            meniscus.reconstruct(particles, progress=progress.__setitem__, threads=1)
+    finally:
+        done.set()
+        thread.join()
+    assert "normals" not in progress  # stopped before the end
+
+
 def test_progress_reports_every_stage_in_order():
     events = []
     meniscus.reconstruct(lattice_block((4, 4, 4)), spacing=0.1, progress=lambda s, f: events.append((s, f)))

@@ -134,7 +134,14 @@ nlohmann::json json_from_python(const py::handle& value, const std::string& key)
   const py::module_ numpy = py::module_::import("numpy");
   if (py::isinstance(value, numpy.attr("generic"))) return json_from_python(value.attr("item")(), key);
   if (py::isinstance<py::bool_>(value)) return value.cast<bool>();
-  if (py::isinstance<py::int_>(value)) return value.cast<long long>();
+  if (py::isinstance<py::int_>(value)) {
+    const long long v = PyLong_AsLongLong(value.ptr());
+    if (v == -1 && PyErr_Occurred()) {
+      PyErr_Clear();
+      throw py::value_error(fmt::format("{} = {}: out of range", key, std::string(py::str(value))));
+    }
+    return v;
+  }
   if (py::isinstance<py::float_>(value)) return value.cast<double>();
   if (py::isinstance<py::str>(value)) return value.cast<std::string>();
   if (py::isinstance<py::list>(value) || py::isinstance<py::tuple>(value) || py::isinstance<py::array>(value)) {

@@ -101,6 +101,13 @@ def surface_point_mesh():
     mesh.vertices.foreach_set("co", positions.ravel())
     mesh.attributes.new("velocity", "FLOAT_VECTOR", "POINT").data.foreach_set(
         "vector", attributes["velocity"].ravel())
+    # A colour ramp along x as the active colour attribute (RGBA).
+    span = positions[:, 0].min(), positions[:, 0].max()
+    ramp = (positions[:, 0] - span[0]) / (span[1] - span[0])
+    rgba = np.stack([ramp, 1 - ramp, np.full_like(ramp, 0.25), np.ones_like(ramp)], axis=1).astype(np.float32)
+    colors = mesh.color_attributes.new("paint", "FLOAT_COLOR", "POINT")
+    colors.data.foreach_set("color", rgba.ravel())
+    mesh.color_attributes.active_color = colors
     obj = bpy.data.objects.new("dam break particles", mesh)
     bpy.context.scene.collection.objects.link(obj)
     bpy.context.view_layer.objects.active = obj
@@ -112,19 +119,29 @@ def surface_point_mesh():
     settings.detail = 1.25
     settings.erode = 0.002
     settings.transfer_velocity = True
-    settings.transfer_color = False
+    settings.transfer_color = True
     settings.result_name = ""
     assert bpy.ops.meniscus.surface() == {"FINISHED"}, settings.last_report
     result = bpy.data.objects[settings.result_name]
     assert result.name == "dam break particles surface"
     counts = assert_watertight(result)
     params = addon.params_from_settings(settings)
-    assert sorted(params) == ["detail", "erode", "smoothness", "transfer"] and params["transfer"] == ["velocity"]
-    expected = reference_counts(positions, {"velocity": attributes["velocity"]}, params)
+    assert sorted(params) == ["detail", "erode", "smoothness", "transfer"]
+    assert params["transfer"] == ["velocity", "color"]
+    expected = reference_counts(positions, {"velocity": attributes["velocity"], "color": rgba[:, :3]}, params)
     assert counts == expected, f"operator gave {counts}, the reference {expected}"
     velocity = result.data.attributes["velocity"]
     assert velocity.domain == "POINT" and len(velocity.data) == counts[0]
     assert result.data.has_custom_normals
+    color = result.data.color_attributes["color"]
+    assert color.domain == "POINT" and result.data.color_attributes.active_color.name == "color"
+    values = np.zeros(len(color.data) * 4, np.float32)
+    color.data.foreach_get("color", values)
+    values = values.reshape(-1, 4)
+    surface_x = mesh_arrays(result)[0][:, 0]
+    expected_red = np.clip((surface_x - span[0]) / (span[1] - span[0]), 0, 1)
+    assert np.median(np.abs(values[:, 0] - expected_red)) < 0.05, "the colour ramp must follow x"
+    assert np.allclose(values[:, 2], 0.25, atol=0.01) and np.allclose(values[:, 3], 1.0)
     print(f"operator: {settings.last_report}")
     return counts
 
@@ -137,7 +154,7 @@ def surface_sequence_on_frame_change(tmp):
     settings.source = "FILES"
     settings.file_pattern = os.path.join(tmp, "fluid_####.ply")
     settings.follow_frames = True
-    settings.transfer_velocity = False
+    settings.transfer_velocity = settings.transfer_color = False
     settings.erode = 0.0
     settings.result_name = "fluid sequence"
     assert addon.on_frame_change in bpy.app.handlers.frame_change_post
@@ -248,11 +265,13 @@ with tempfile.TemporaryDirectory(prefix="meniscus-blender-") as tmp:
         settings.source = "OBJECT"
         settings.erode = 0.002
         settings.transfer_velocity = True
+        settings.transfer_color = True
         settings.result_name = "via cli"
         assert bpy.ops.meniscus.surface() == {"FINISHED"}, settings.last_report
         cli_counts = assert_watertight(bpy.data.objects["via cli"])
         assert [cli_counts] == module_counts, f"CLI backend gave {cli_counts}, the module {module_counts}"
         assert "velocity" in bpy.data.objects["via cli"].data.attributes
+        assert "color" in bpy.data.objects["via cli"].data.color_attributes
         print(f"CLI backend: {settings.last_report}")
 
     addon_utils.disable("meniscus_blender", default_set=True)

@@ -116,6 +116,8 @@ def test_values_of_the_wrong_type():
         meniscus.reconstruct(positions, spacing="wide")
     with pytest.raises(TypeError, match="spacing"):
         meniscus.reconstruct(positions, spacing=object())
+    with pytest.raises(ValueError, match="steps_a"):
+        meniscus.reconstruct(positions, steps_a=10**30)
     with pytest.raises(ValueError, match=r"positions must be an N×3 array, got shape \(27, 2\)"):
         meniscus.reconstruct(positions[:, :2])
     with pytest.raises(ValueError, match="particle attribute 'v' must have shape"):

@@ -445,7 +445,8 @@ int run_render(const RenderArgs& a) {
     view.particles = particles[i].size() ? &particles[i] : nullptr;
     images.push_back(render_turntable(meshes[i], view, a.turntable));
   }
-  const Image picture = join_images(images, 1);
+  // Frames side by side; with a turntable, one row of views per frame.
+  const Image picture = join_images(images, a.turntable == 1 ? int(images.size()) : 1);
   make_parent_dirs(a.output);
   write_png(a.output, picture);
   if (!a.quiet) {

@@ -60,7 +60,11 @@ void length_param(const char* name, double value) {
 void Params::validate() const {
   length_param("spacing", spacing);
   length_param("voxel_size", voxel_size);
+  require(std::isfinite(detail) && detail > 0 && detail <= 8, "detail", detail,
+          "must be in (0, 8] (1 = default resolution, 2 = half the voxel size)");
   length_param("r_outer", r_outer);
+  require(std::isfinite(r_outer_factor) && r_outer_factor > 0 && r_outer_factor <= 4, "r_outer_factor", r_outer_factor,
+          "must be in (0, 4] (r_outer in particle spacings)");
   length_param("r_inner", r_inner);
   length_param("erode", erode);
   length_param("transfer_radius", transfer_radius);

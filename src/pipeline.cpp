@@ -165,8 +165,8 @@ Params resolve_params(const ParticleSet& particles, const Params& in) {
   Params p = in;
   if (p.spacing == 0) p.spacing = estimate_spacing(particles);
   const double d = p.spacing;
-  if (p.voxel_size == 0) p.voxel_size = d / 2;
-  if (p.r_outer == 0) p.r_outer = std::max(1.0 * d, in.r_inner > 0 ? in.r_inner * 2 : 0.0);
+  if (p.voxel_size == 0) p.voxel_size = d / (2 * p.detail);
+  if (p.r_outer == 0) p.r_outer = std::max(p.r_outer_factor * d, in.r_inner > 0 ? in.r_inner * 2 : 0.0);
   if (p.r_inner == 0) p.r_inner = 0.5 * p.r_outer;
   if (p.transfer_radius == 0) p.transfer_radius = 2 * d;
   if (p.threads == 0) p.threads = tbb::info::default_concurrency();
@@ -313,8 +313,10 @@ std::string stats_to_json(const Result& result) {
   q["spacing"] = p.spacing;
   q["spacing_estimated"] = s.spacing_estimated;
   q["voxel_size"] = p.voxel_size;
+  q["detail"] = p.detail;
   q["r_inner"] = p.r_inner;
   q["r_outer"] = p.r_outer;
+  q["r_outer_factor"] = p.r_outer_factor;
   q["extract"] = to_string(p.extract);
   q["keep_voids"] = p.keep_voids;
   q["steps_a"] = p.steps_a;

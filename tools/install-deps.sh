@@ -8,4 +8,5 @@ apt-get install -y -qq --no-install-recommends \
   libtbb-dev libfmt-dev nlohmann-json3-dev libcli11-dev zlib1g-dev libblosc-dev libstb-dev libopenvdb-dev \
   libgtest-dev libgmock-dev libbenchmark-dev \
   clang libclang-rt-14-dev \
-  python3 python3-numpy python3-meshio python3-vtk9 >/dev/null
+  python3 python3-numpy python3-meshio python3-vtk9 \
+  python3-dev python3-pytest pybind11-dev blender >/dev/null

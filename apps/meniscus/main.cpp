@@ -1,14 +1,18 @@
-// meniscus — command-line front end: `meniscus surface`, `meniscus info`.
+// meniscus — command-line front end: `meniscus surface`, `meniscus render`, `meniscus inspect`, `meniscus info`.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <fmt/format.h>
 #include <tbb/info.h>
 
+#include <array>
 #include <atomic>
+#include <cmath>
 #include <chrono>
 #include <mutex>
 #include <optional>
 #include <thread>
+#include <tuple>
+#include <utility>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -18,6 +22,7 @@
 #include "field/vdb_export.hpp"
 #include "io/atomic_file.hpp"
 #include "meniscus/backend.hpp"
+#include "meniscus/config.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
 #include "meniscus/quality.hpp"
@@ -41,6 +46,9 @@ struct SurfaceArgs {
   int jobs = 1;
   bool quiet = false, drop_invalid = false, fail_fast = false;
   Params params;
+  // Artist controls (README "Artist controls"): config file < preset < smoothness/detail < options.
+  std::string config_path, preset;
+  std::optional<double> smoothness, detail;
 };
 
 void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
@@ -93,6 +101,53 @@ void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
       ->delimiter(',');
   cmd.add_flag("--drop-invalid", a.drop_invalid, "drop particles with NaN/Inf coordinates instead of failing");
   cmd.add_flag("-q,--quiet", a.quiet, "no progress bar and no summary");
+  cmd.add_option("--config", a.config_path, "JSON file of parameters (or a --stats file to replay); options given win");
+  cmd.add_option("--preset", a.preset, "preview (fast), production (the defaults) or droplets (keeps thin sheets and "
+                                       "lone droplets)");
+  cmd.add_option("--smoothness", a.smoothness, "0 (as extracted) .. 1 (twice the sweeps); 0.5 = the default schedule");
+  cmd.add_option("--detail", a.detail, "resolution multiplier: voxel size d / (2·detail); 2 ≈ 4× the triangles");
+}
+
+/// The parameters from the artist controls, with every option given on the command line on top:
+/// config file < preset < smoothness/detail < explicit options.
+void apply_artist_controls(const CLI::App& cmd, SurfaceArgs& a) {
+  if (a.config_path.empty() && a.preset.empty() && !a.smoothness && !a.detail) return;
+  Params layered;
+  if (!a.config_path.empty()) {
+    try {
+      layered = read_config(a.config_path);
+    } catch (const std::runtime_error& e) {  // FormatError, IoError: a bad option, not bad input (exit 2)
+      throw InvalidParameter(fmt::format("--config {}", e.what()));
+    }
+  }
+  if (!a.preset.empty()) apply_preset(layered, a.preset);
+  if (a.smoothness) apply_smoothness(layered, *a.smoothness);
+  if (a.detail) apply_detail(layered, *a.detail);
+  Params& p = a.params;
+  const auto take = [&](const char* option, auto Params::*member) {
+    if (cmd.count(option) == 0) p.*member = layered.*member;
+  };
+  take("--spacing", &Params::spacing);
+  take("--voxel-size", &Params::voxel_size);
+  take("--r-outer", &Params::r_outer);
+  take("--r-inner", &Params::r_inner);
+  take("--steps-a", &Params::steps_a);
+  take("--steps-b", &Params::steps_b);
+  take("--steps-free", &Params::steps_free);
+  take("--relax", &Params::relax);
+  take("--relax-b", &Params::relax_b);
+  take("--solver", &Params::solver);
+  take("--rebuild-b", &Params::rebuild_b);
+  take("--extract", &Params::extract);
+  take("--erode", &Params::erode);
+  take("--transfer", &Params::transfer);
+  take("--transfer-radius", &Params::transfer_radius);
+  take("--threads", &Params::threads);
+  take("--max-memory", &Params::max_memory_gb);
+  take("--keep-voids", &Params::keep_voids);
+  take("--backend", &Params::backend);
+  p.detail = layered.detail;  // no options of their own but --detail and --preset, applied above
+  p.r_outer_factor = layered.r_outer_factor;
 }
 
 /// Creates the directories an output file goes into (like a renderer's output path).
@@ -116,6 +171,19 @@ void check_output_format(const std::string& output) {
   throw InvalidParameter(
       fmt::format("output '{}': unknown mesh format (supported: {})", output, fmt::join(mesh_formats(), ", ")));
 }
+
+Vec3f up_axis(const std::string& up) {
+  return up == "x" ? Vec3f{1, 0, 0} : (up == "y" ? Vec3f{0, 1, 0} : Vec3f{0, 0, 1});
+}
+
+/// A growing axis-aligned box of finite points.
+struct Box3 {
+  Vec3f lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+  void add(Vec3f p) {
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) lo = min(lo, p), hi = max(hi, p);
+  }
+  bool valid() const { return lo.x <= hi.x; }
+};
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -150,7 +218,7 @@ Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, cons
   if (!f.preview.empty()) {
     const auto t2 = std::chrono::steady_clock::now();
     RenderOptions view;
-    view.up = a.up == "x" ? Vec3f{1, 0, 0} : (a.up == "y" ? Vec3f{0, 1, 0} : Vec3f{0, 0, 1});
+    view.up = up_axis(a.up);
     write_png(f.preview, render_mesh(result.mesh, view));
     result.stats.stages.push_back({"preview", seconds_since(t2)});
   }
@@ -244,10 +312,13 @@ int run_sequence(const SurfaceArgs& a, const FramePattern& in) {
   return failed.empty() ? 0 : kExitRuntime;
 }
 
-int run_surface(SurfaceArgs& a) {
+int run_surface(const CLI::App& cmd, SurfaceArgs& a) {
   a.params.extract = parse_extractor(a.extract);
   a.params.solver = parse_solver(a.solver);
   a.params.backend = parse_backend(a.backend);
+  apply_artist_controls(cmd, a);
+  if (a.detail && cmd.count("--voxel-size") && !a.quiet)
+    fmt::print(stderr, "warning: --detail is ignored: --voxel-size {:g} is given\n", a.params.voxel_size);
   a.params.validate();
   check_output_format(a.output);  // refuse an unknown format before any work is done
   if (!a.field_path.empty() && !has_openvdb())
@@ -261,6 +332,143 @@ int run_surface(SurfaceArgs& a) {
   const Result result = surface_one(a, f, !a.quiet, [&](std::string_view stage, double fraction) { bar.update(stage, fraction); });
   bar.finish();
   if (!a.quiet) print_summary(a, f, result);
+  return 0;
+}
+
+struct RenderArgs {
+  std::string mesh, output, particles, color_by, range, size = "960x720", up = "z", frames;
+  float yaw = 35, pitch = 30;
+  int turntable = 1;
+  bool quiet = false;
+};
+
+/// "960x720" → {960, 720}; each side 1 ..= 8192.
+std::pair<int, int> parse_size(const std::string& text) {
+  const std::size_t x = text.find_first_of("xX");
+  const auto side = [&](std::string_view digits) {
+    if (digits.empty() || digits.size() > 5 || digits.find_first_not_of("0123456789") != std::string_view::npos) return 0;
+    return std::stoi(std::string(digits));
+  };
+  const int w = x == std::string::npos ? 0 : side(std::string_view(text).substr(0, x));
+  const int h = x == std::string::npos ? 0 : side(std::string_view(text).substr(x + 1));
+  if (w < 1 || h < 1 || w > 8192 || h > 8192)
+    throw InvalidParameter(fmt::format("--size '{}': expected WIDTHxHEIGHT with each side in 1 ..= 8192, e.g. 960x720", text));
+  return {w, h};
+}
+
+/// "lo,hi" → {lo, hi} with lo < hi.
+std::array<float, 2> parse_range(const std::string& text) {
+  const std::size_t comma = text.find(',');
+  float lo = 0, hi = 0;
+  bool ok = comma != std::string::npos;
+  if (ok) {
+    try {
+      std::size_t used_lo = 0, used_hi = 0;
+      const std::string a = text.substr(0, comma), b = text.substr(comma + 1);
+      lo = std::stof(a, &used_lo);
+      hi = std::stof(b, &used_hi);
+      ok = used_lo == a.size() && used_hi == b.size() && std::isfinite(lo) && std::isfinite(hi) && lo < hi;
+    } catch (const std::exception&) {
+      ok = false;
+    }
+  }
+  if (!ok) throw InvalidParameter(fmt::format("--range '{}': expected LO,HI with LO < HI, e.g. 0,2.5", text));
+  return {lo, hi};
+}
+
+/// Pictures of a mesh or a mesh sequence: one tile per frame (a row of --turntable views each),
+/// all frames framed on their common bounding box and coloured over one range.
+int run_render(const RenderArgs& a) {
+  RenderOptions options;
+  std::tie(options.width, options.height) = parse_size(a.size);
+  options.up = up_axis(a.up);
+  options.yaw_degrees = a.yaw;
+  options.pitch_degrees = a.pitch;
+  options.color_attribute = a.color_by;
+  if (!a.range.empty()) options.color_range = parse_range(a.range);
+  if (!a.range.empty() && a.color_by.empty()) throw InvalidParameter("--range needs --color-by");
+  if (a.turntable < 1 || a.turntable > 64)
+    throw InvalidParameter(fmt::format("--turntable {}: expected 1 ..= 64 views", a.turntable));
+  options.validate();
+  if (const std::string ext = std::filesystem::path(a.output).extension().string(); ext != ".png" && ext != ".PNG")
+    throw InvalidParameter(fmt::format("output '{}': render writes .png pictures", a.output));
+
+  // The files: one mesh, or the frames of a pattern (with a particle pattern beside it).
+  const std::optional<FramePattern> mesh_pattern = parse_frame_pattern(a.mesh);
+  const std::optional<FramePattern> particle_pattern =
+      a.particles.empty() ? std::nullopt : parse_frame_pattern(a.particles);
+  std::vector<std::pair<std::string, std::string>> files;  // mesh, particles
+  std::vector<int> frames;
+  if (mesh_pattern) {
+    frames = a.frames.empty() ? discover_frames(*mesh_pattern) : parse_frame_ranges(a.frames);
+    if (frames.empty()) throw InvalidParameter(fmt::format("no frames found for '{}' (give --frames)", a.mesh));
+    for (const int frame : frames)
+      files.emplace_back(mesh_pattern->format(frame), particle_pattern ? particle_pattern->format(frame) : a.particles);
+  } else {
+    if (!a.frames.empty()) throw InvalidParameter("--frames needs a mesh pattern with a frame placeholder (####, {} or %04d)");
+    if (particle_pattern)
+      throw InvalidParameter(fmt::format("--particles '{}' has a frame placeholder but the mesh is a single file", a.particles));
+    files.emplace_back(a.mesh, a.particles);
+  }
+  const std::size_t tiles = files.size() * std::size_t(a.turntable);
+  if (tiles > 256)
+    throw InvalidParameter(fmt::format("{} frames × {} views = {} pictures: at most 256 (select fewer with --frames "
+                                       "1-240:10)", files.size(), a.turntable, tiles));
+
+  // Read everything first, so a missing file or attribute fails before any picture is made.
+  std::vector<TriangleMesh> meshes;
+  std::vector<ParticleSet> particles;
+  Box3 box;
+  for (const auto& [mesh_file, particle_file] : files) {
+    meshes.push_back(read_mesh(mesh_file));
+    particles.push_back(particle_file.empty() ? ParticleSet{} : read_particles(particle_file));
+    for (const Vec3f& v : meshes.back().vertices) box.add(v);
+    if (meshes.back().vertices.empty())
+      for (const Vec3f& v : particles.back().positions) box.add(v);
+  }
+  std::optional<std::array<float, 2>> auto_range;
+  ColorMapping mapping = ColorMapping::scalar;
+  if (!a.color_by.empty()) {
+    for (std::size_t i = 0; i < meshes.size(); ++i) {
+      const Attribute* attribute = meshes[i].find(a.color_by);
+      if (attribute == nullptr) {
+        std::string available;
+        for (const Attribute& at : meshes[i].attributes)
+          if (at.components == 1 || at.components == 3) available += (available.empty() ? "" : ", ") + at.name;
+        throw InvalidParameter(fmt::format("--color-by '{}': {} has no such vertex attribute (it has: {})", a.color_by,
+                                           files[i].first, available.empty() ? "none" : available));
+      }
+      mapping = color_mapping(*attribute);
+      if (const auto r = color_value_range(*attribute))
+        auto_range = auto_range ? std::array{std::min((*auto_range)[0], (*r)[0]), std::max((*auto_range)[1], (*r)[1])} : *r;
+    }
+    // One range for every frame, so a colour means the same value in every tile.
+    if (!options.color_range && auto_range && (*auto_range)[0] < (*auto_range)[1]) options.color_range = auto_range;
+  }
+  if (mesh_pattern && box.valid()) options.frame_bounds = Bounds{box.lo, box.hi};
+
+  std::vector<Image> images;
+  for (std::size_t i = 0; i < meshes.size(); ++i) {
+    RenderOptions view = options;
+    view.particles = particles[i].size() ? &particles[i] : nullptr;
+    images.push_back(render_turntable(meshes[i], view, a.turntable));
+  }
+  // Frames side by side; with a turntable, one row of views per frame.
+  const Image picture = join_images(images, a.turntable == 1 ? int(images.size()) : 1);
+  make_parent_dirs(a.output);
+  write_png(a.output, picture);
+  if (!a.quiet) {
+    if (!a.color_by.empty()) {
+      if (mapping == ColorMapping::rgb)
+        fmt::print(stderr, "coloured by '{}' as RGB\n", a.color_by);
+      else if (options.color_range)
+        fmt::print(stderr, "coloured by '{}'{} through viridis: {:.6g} (purple) .. {:.6g} (yellow)\n", a.color_by,
+                   mapping == ColorMapping::magnitude ? " (magnitude)" : "", (*options.color_range)[0],
+                   (*options.color_range)[1]);
+    }
+    fmt::print(stderr, "wrote {} ({}×{}: {} frame(s) × {} view(s))\n", a.output, picture.width, picture.height,
+               meshes.size(), a.turntable);
+  }
   return 0;
 }
 
@@ -375,14 +583,35 @@ int main(int argc, char** argv) {
   inspect_cmd->add_option("--r-outer", inspect.r_outer, "outer constraint radius (default 1.0 d)")->check(CLI::PositiveNumber);
   inspect_cmd->add_flag("--json", inspect.json, "print the metrics as JSON");
   CLI::App* info_cmd = app.add_subcommand("info", "version, backends, threads and formats");
+  RenderArgs render;
+  CLI::App* render_cmd = app.add_subcommand("render", "preview picture (.png) of a mesh or a mesh sequence");
+  render_cmd->add_option("mesh", render.mesh, "mesh file, or a sequence pattern (mesh_####.ply): one tile per frame")
+      ->required();
+  render_cmd->add_option("-o,--output", render.output, "picture to write (.png)")->required();
+  render_cmd->add_option("--size", render.size, "size of each tile, WIDTHxHEIGHT")->capture_default_str();
+  render_cmd->add_option("--up", render.up, "up axis (SPlisHSPlasH and Houdini scenes are y-up)")
+      ->check(CLI::IsMember({"x", "y", "z"}))->capture_default_str();
+  render_cmd->add_option("--yaw", render.yaw, "camera azimuth around the up axis, degrees")->capture_default_str();
+  render_cmd->add_option("--pitch", render.pitch, "camera elevation, degrees in [-89, 89]")->capture_default_str();
+  render_cmd->add_option("--particles", render.particles,
+                         "overlay these particles as dots, hidden where the surface is in front (a pattern for a sequence)");
+  render_cmd->add_option("--color-by", render.color_by,
+                         "colour by a vertex attribute: scalar or vector magnitude through viridis, colours as RGB");
+  render_cmd->add_option("--range", render.range, "values at the ends of the colormap, LO,HI (default: min,max over all frames)");
+  render_cmd->add_option("--turntable", render.turntable, "N views at evenly spaced azimuths, side by side")
+      ->capture_default_str();
+  render_cmd->add_option("--frames", render.frames, "frames of a sequence: 1-240, 1-240:10, 1,5,10-20 (default: all found)");
+  render_cmd->add_flag("-q,--quiet", render.quiet, "print nothing");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    const int code = app.exit(e);
+    return code == 0 ? 0 : kExitUsage;  // --help is not an error; every bad option is
   }
   try {
-    if (surface_cmd->parsed()) return run_surface(surface);
+    if (surface_cmd->parsed()) return run_surface(*surface_cmd, surface);
     if (info_cmd->parsed()) return run_info();
+    if (render_cmd->parsed()) return run_render(render);
     if (inspect_cmd->parsed()) return run_inspect(inspect);
   } catch (const meniscus::InvalidParameter& e) {
     fmt::print(stderr, "meniscus: error: {}\n", e.what());

@@ -27,8 +27,14 @@ Backend parse_backend(const std::string& name);
 struct Params {
   // --- geometry -------------------------------------------------------------------------------
   double spacing = 0;          ///< particle separation d; 0: median nearest-neighbour distance
-  double voxel_size = 0;       ///< field resolution h; 0: d / 2
-  double r_outer = 0;          ///< initial surface = union of spheres of this radius; 0: 1.0 d
+  double voxel_size = 0;       ///< field resolution h; 0: d / (2 · detail)
+  /// Resolution multiplier when voxel_size is 0, in (0, 8]: 2 halves the voxel size (about 4×
+  /// the triangles, 8× the field memory), 0.5 doubles it. Ignored when voxel_size is given.
+  double detail = 1;
+  double r_outer = 0;          ///< initial surface = union of spheres of this radius; 0: r_outer_factor · d
+  /// r_outer in spacings when r_outer is 0, in (0, 4]. The "droplets" preset raises it to 1.25 so
+  /// that stretched sheets (particles up to 2.5 d apart) stay closed.
+  double r_outer_factor = 1.0;
   double r_inner = 0;          ///< vertices are kept at least this far from particles; 0: 0.5 d
   Extractor extract = Extractor::tiles;
   /// Keep interior voids smaller than (2d)³ (closed inward-facing components: gaps in the
@@ -57,6 +63,8 @@ struct Params {
   /// Throws InvalidParameter naming the first parameter that is out of range or inconsistent.
   /// Zero ("derive") values are accepted; call after resolve() to check the derived ones too.
   void validate() const;
+
+  friend bool operator==(const Params&, const Params&) = default;
 };
 
 }  // namespace meniscus

@@ -1,8 +1,11 @@
 // meniscus — a built-in software rasterizer for preview pictures of a mesh, and a PNG writer.
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "meniscus/mesh.hpp"
@@ -11,11 +14,16 @@
 
 namespace meniscus {
 
+/// An axis-aligned box.
+struct Bounds {
+  Vec3f lo, hi;
+};
+
 /// How render_mesh draws a mesh. Colours are sRGB components in [0, 1] (as in a colour picker);
 /// lighting is computed in linear light and the output is sRGB-encoded.
 ///
 /// The view is a fixed three-quarter view: a perspective camera looks at the centre of the mesh's
-/// bounding box from azimuth `yaw_degrees` and elevation `pitch_degrees` (measured around and
+/// bounding box (or of `frame_bounds`) from azimuth `yaw_degrees` and elevation `pitch_degrees` (measured around and
 /// from the plane perpendicular to `up`) and is zoomed so that the projected bounding box spans
 /// `frame_fill` of the image's limiting dimension. The surface is lit by a warm key light from
 /// the viewer's upper left, a weaker cool fill light from the right and a sky/ground ambient,
@@ -37,10 +45,19 @@ struct RenderOptions {
   float frame_fill = 0.85f;
   /// Surface colour when no colour attribute is used (water blue).
   Vec3f base_color{0.30f, 0.55f, 0.85f};
-  /// If non-empty and the mesh has a per-vertex attribute of this name with 3 components (RGB
-  /// in [0, 1], clamped) or 1 component (mapped through the viridis colormap normalized to the
-  /// attribute's finite min..max), the surface is coloured by it; otherwise base_color is used.
+  /// If non-empty, the surface is coloured by the mesh's per-vertex attribute of this name (see
+  /// color_mapping): a scalar, or the magnitude of a 3-component vector, through the viridis
+  /// colormap over `color_range`; a 3-component attribute named like a colour as RGB in [0, 1]
+  /// (clamped). Empty: base_color. render_mesh throws InvalidParameter listing the attributes
+  /// the mesh has when there is none of this name or it has neither 1 nor 3 components.
   std::string color_attribute;
+  /// The values mapped onto the ends of the colormap (lo: dark purple, hi: yellow; values
+  /// outside are clamped, non-finite ones drawn as lo). Unset: the attribute's own finite
+  /// min..max (color_value_range). lo < hi, both finite.
+  std::optional<std::array<float, 2>> color_range;
+  /// Frame the camera on this box instead of the bounds of the mesh, so that several pictures
+  /// (the frames of a sequence) share one position and scale. lo ≤ hi componentwise, finite.
+  std::optional<Bounds> frame_bounds;
   /// Optional overlay, not owned: particles drawn as small shaded dots, depth-tested against the
   /// surface (so particles inside a closed surface are hidden). Non-finite positions are skipped.
   const ParticleSet* particles = nullptr;
@@ -97,6 +114,27 @@ Vec3f project(const Camera& camera, Vec3f point);
 /// that is neither empty nor one per vertex, or a colour attribute whose length does not match
 /// the vertex count.
 Image render_mesh(const TriangleMesh& mesh, const RenderOptions& options = {});
+
+/// How an attribute colours the surface: `rgb` for 3 components when the name says colour
+/// ("color", "colour", "Cd", "rgb" or containing "color"/"colour", any case), `magnitude` for
+/// other 3-component attributes (velocity, normal …), `scalar` for 1 component. Throws
+/// InvalidParameter naming the attribute when it has another number of components.
+enum class ColorMapping { rgb, scalar, magnitude };
+ColorMapping color_mapping(const Attribute& attribute);
+
+/// The finite min and max of the values the colormap would show for `attribute` (the scalar or
+/// the vector magnitude), nullopt when it has no finite value or is mapped as RGB.
+std::optional<std::array<float, 2>> color_value_range(const Attribute& attribute);
+
+/// `views` pictures of the mesh side by side, at azimuths options.yaw_degrees + 360°·k / views
+/// (k = 0 … views − 1), each options.width × options.height and framed on its own: a turntable
+/// strip views·width wide. Throws InvalidParameter when views is not in [1, 64].
+Image render_turntable(const TriangleMesh& mesh, const RenderOptions& options, int views);
+
+/// The images as a grid, row-major, `columns` per row (the last row filled from the left, the
+/// rest of it black). Every image must have the same size. Throws InvalidParameter for no
+/// images, columns < 1, mismatched sizes, or a result over 2^30 pixels.
+Image join_images(const std::vector<Image>& images, int columns);
 
 /// Writes the image as an 8-bit RGB PNG. The file is written to a temporary name in the same
 /// directory and renamed when complete, so a failure never leaves a partial or temporary file.

@@ -3,6 +3,7 @@
 // fill rule, a visibility buffer shaded once per sample (Burns & Hunt 2013), 2×2 supersampling.
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -504,11 +505,33 @@ void check_mesh(const TriangleMesh& mesh) {
             fmt::format("render_mesh: triangle {} references vertex {} but the mesh has {} vertices", i, v, n));
 }
 
+std::string lowercase(std::string_view text) {
+  std::string out(text);
+  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return out;
+}
+
+/// The value the colormap shows for vertex i: the scalar, or the vector's length.
+float mapped_value(const Attribute& attribute, std::size_t i) {
+  if (attribute.components == 1) return attribute.values[i];
+  const float* v = &attribute.values[3 * i];
+  return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+}
+
 /// Linear per-vertex colours from options.color_attribute, or empty to use the base colour.
 std::vector<Vec3f> vertex_colors(const TriangleMesh& mesh, const RenderOptions& options) {
   if (options.color_attribute.empty()) return {};
   const Attribute* attribute = mesh.find(options.color_attribute);
-  if (attribute == nullptr || (attribute->components != 1 && attribute->components != 3)) return {};
+  if (attribute == nullptr) {
+    std::string available;
+    for (const Attribute& a : mesh.attributes)
+      if (a.components == 1 || a.components == 3)
+        available += fmt::format("{}{} ({})", available.empty() ? "" : ", ", a.name,
+                                 a.components == 1 ? "scalar" : "3 components");
+    throw InvalidParameter(fmt::format("colour attribute '{}': the mesh has no such vertex attribute (it has: {})",
+                                       options.color_attribute, available.empty() ? "none" : available));
+  }
+  const ColorMapping mapping = color_mapping(*attribute);
   const std::size_t n = mesh.vertices.size();
   const auto components = std::size_t(attribute->components);
   if (attribute->values.size() != n * components)
@@ -517,23 +540,20 @@ std::vector<Vec3f> vertex_colors(const TriangleMesh& mesh, const RenderOptions& 
                     attribute->values.size(), n * components, n, components));
   const std::vector<float>& values = attribute->values;
   std::vector<Vec3f> colors(n);
-  if (components == 3) {
+  if (mapping == ColorMapping::rgb) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& range) {
       for (std::size_t i = range.begin(); i < range.end(); ++i)
         colors[i] = srgb_to_linear(Vec3f{values[3 * i], values[3 * i + 1], values[3 * i + 2]});
     });
     return colors;
   }
-  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-  for (const float v : values)
-    if (std::isfinite(v)) {
-      lo = std::min(lo, v);
-      hi = std::max(hi, v);
-    }
+  const std::array<float, 2> range = options.color_range ? *options.color_range
+                                                         : color_value_range(*attribute).value_or(std::array{0.0f, 0.0f});
+  const float lo = range[0], hi = range[1];
   const float scale = hi > lo ? 1.0f / (hi - lo) : 0.0f;  // constant attribute: middle of the map
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& range) {
-    for (std::size_t i = range.begin(); i < range.end(); ++i) {
-      const float v = values[i];
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& block) {
+    for (std::size_t i = block.begin(); i < block.end(); ++i) {
+      const float v = mapped_value(*attribute, i);
       const float t = !std::isfinite(v) ? 0.0f : (scale > 0 ? (v - lo) * scale : 0.5f);
       colors[i] = srgb_to_linear(viridis(t));
     }
@@ -569,11 +589,22 @@ void RenderOptions::validate() const {
   check_range("particle_radius_pixels", particle_radius_pixels, 0.25f, 64.0f, "0.25 ..= 64");
   check_color("background_top", background_top);
   check_color("background_bottom", background_bottom);
+  if (color_range) {
+    const auto [lo, hi] = *color_range;
+    if (!(std::isfinite(lo) && std::isfinite(hi) && lo < hi))
+      throw out_of_range("color_range", fmt::format("{}, {}", lo, hi), "finite lo < hi");
+  }
+  if (frame_bounds) {
+    const Bounds& b = *frame_bounds;
+    if (!is_finite(b.lo) || !is_finite(b.hi) || !(b.lo.x <= b.hi.x && b.lo.y <= b.hi.y && b.lo.z <= b.hi.z))
+      throw out_of_range("frame_bounds", format_vec(b.lo) + " .. " + format_vec(b.hi), "finite, lo ≤ hi");
+  }
 }
 
 Camera frame_camera(const TriangleMesh& mesh, const RenderOptions& options) {
   options.validate();
   Box box = finite_bounds(mesh.vertices);
+  if (options.frame_bounds) box = {options.frame_bounds->lo, options.frame_bounds->hi};
   if (box.empty() && options.particles != nullptr) box = finite_bounds(options.particles->positions);
   if (box.empty()) box.lo = box.hi = Vec3f{0, 0, 0};
 
@@ -777,6 +808,75 @@ Image render_mesh(const TriangleMesh& mesh, const RenderOptions& options) {
     }
   });
   return image;
+}
+
+ColorMapping color_mapping(const Attribute& attribute) {
+  if (attribute.components == 1) return ColorMapping::scalar;
+  if (attribute.components != 3)
+    throw InvalidParameter(fmt::format("colour attribute '{}' has {} components; colouring needs 1 (a scalar) or 3 "
+                                       "(a colour or a vector)",
+                                       attribute.name, attribute.components));
+  const std::string name = lowercase(attribute.name);
+  const bool colour_named = name == "cd" || name == "rgb" || name.find("color") != std::string::npos ||
+                            name.find("colour") != std::string::npos;
+  return colour_named ? ColorMapping::rgb : ColorMapping::magnitude;
+}
+
+std::optional<std::array<float, 2>> color_value_range(const Attribute& attribute) {
+  if (color_mapping(attribute) == ColorMapping::rgb) return std::nullopt;
+  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+  for (std::size_t i = 0, n = attribute.size(); i < n; ++i) {
+    const float v = mapped_value(attribute, i);
+    if (std::isfinite(v)) {
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+  }
+  if (!(lo <= hi)) return std::nullopt;
+  return std::array{lo, hi};
+}
+
+Image render_turntable(const TriangleMesh& mesh, const RenderOptions& options, int views) {
+  if (views < 1 || views > 64)
+    throw InvalidParameter(fmt::format("turntable views = {} is out of range (expected 1 ..= 64)", views));
+  std::vector<Image> images;
+  images.reserve(std::size_t(views));
+  RenderOptions view = options;
+  for (int k = 0; k < views; ++k) {
+    view.yaw_degrees = options.yaw_degrees + 360.0f * float(k) / float(views);
+    images.push_back(render_mesh(mesh, view));
+  }
+  return join_images(images, views);
+}
+
+Image join_images(const std::vector<Image>& images, int columns) {
+  if (images.empty()) throw InvalidParameter("join_images: no images");
+  if (columns < 1) throw InvalidParameter(fmt::format("join_images: columns = {}: must be ≥ 1", columns));
+  const int w = images[0].width, h = images[0].height;
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    const Image& image = images[i];
+    if (image.width != w || image.height != h || w < 1 || h < 1 ||
+        image.rgb.size() != std::size_t(w) * std::size_t(h) * 3)
+      throw InvalidParameter(fmt::format("join_images: image {} is {}×{} ({} bytes), expected {}×{}", i, image.width,
+                                         image.height, image.rgb.size(), w, h));
+  }
+  const std::size_t cols = std::min(std::size_t(columns), images.size());
+  const std::size_t rows = (images.size() + cols - 1) / cols;
+  const std::size_t total_w = cols * std::size_t(w), total_h = rows * std::size_t(h);
+  if (total_w * total_h > (std::size_t{1} << 30) || total_w > std::size_t(std::numeric_limits<int>::max()) ||
+      total_h > std::size_t(std::numeric_limits<int>::max()))
+    throw InvalidParameter(fmt::format("join_images: {}×{} pixels is too large (at most 2^30)", total_w, total_h));
+  Image out;
+  out.width = int(total_w);
+  out.height = int(total_h);
+  out.rgb.assign(total_w * total_h * 3, 0);
+  const std::size_t row_bytes = std::size_t(w) * 3;
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    const std::size_t x0 = (i % cols) * std::size_t(w), y0 = (i / cols) * std::size_t(h);
+    for (std::size_t y = 0; y < std::size_t(h); ++y)
+      std::copy_n(&images[i].rgb[y * row_bytes], row_bytes, &out.rgb[((y0 + y) * total_w + x0) * 3]);
+  }
+  return out;
 }
 
 }  // namespace meniscus

@@ -247,11 +247,15 @@ TEST(RenderTest, RgbColourAttributeColoursTheSurface) {
   ASSERT_GT(covered, 1000);
   EXPECT_GT(double(red) / covered, 0.9);
 
-  // An unknown attribute name falls back to the base colour (blue dominant).
+  // An unknown attribute name is refused, naming the attributes the mesh has.
   options.color_attribute = "no such attribute";
-  const Image fallback = render_mesh(mesh, options);
-  const Rgb centre = pixel(fallback, 160, 120);
-  EXPECT_GT(centre.b, centre.r);
+  try {
+    (void)render_mesh(mesh, options);
+    ADD_FAILURE() << "an unknown colour attribute was accepted";
+  } catch (const InvalidParameter& e) {
+    EXPECT_NE(std::string(e.what()).find("no such attribute"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("color (3 components)"), std::string::npos) << e.what();
+  }
 }
 
 TEST(RenderTest, ScalarAttributeIsMappedThroughTheColormap) {

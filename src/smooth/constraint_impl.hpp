@@ -36,11 +36,12 @@ MENISCUS_HD inline Vec3f project_to_ellipsoid_shell(Vec3f x, Vec3f c, const SymM
   Vec3f d = x - c;
   float m = length(a * d);
   if (m >= r_inner && m <= r_outer) return x;
+  const float target = m < r_inner ? r_inner : r_outer;
   if (m == 0.0f) {
     d = Vec3f{0, 0, 1};
     m = length(a * d);
   }
-  return c + d * ((m < r_inner ? r_inner : r_outer) / m);
+  return c + d * (target / m);
 }
 
 }  // namespace meniscus

@@ -198,19 +198,42 @@ Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x) {
   }
   const MetricNearest n = nearest_in_metric(c, x);
   if (n.distance >= lo && n.distance <= hi) return x;
-  // Projections against different particles undo each other: search the metric ray from the
-  // first particle, from its outer shell inwards, for a point outside every inner ellipsoid.
+  // Projections against different particles undo each other (a vertex squeezed between the
+  // inner ellipsoid of one particle and the outer one of another): search rays from the first
+  // particle, from its outer shell inwards, for a point outside every inner ellipsoid — on such a
+  // ray the first particle measures ≤ r_outer, so the constraint holds. The ray through x first,
+  // then the directions around it, nearest first.
   const Vec3f p = points[first];
   const SymMat3& a = c.ellipsoids[first].metric;
-  const Vec3f u = x == p ? Vec3f{0, 0, 1} : x - p;
-  const float mu = length(a * u);
-  constexpr int kSteps = 16;
-  for (int k = 0; k <= kSteps; ++k) {
-    const float t = target_out - (target_out - target_in) * float(k) / kSteps;
-    const Vec3f y = p + u * (t / mu);
-    const MetricNearest m = nearest_in_metric(c, y);
-    if (m.distance >= lo && m.distance <= hi) return y;
-  }
+  const Vec3f u = x == p ? Vec3f{0, 0, 1} : normalized(x - p);
+  constexpr int kSteps = 12;
+  auto search_ray = [&](Vec3f dir, Vec3f* out) {
+    const float mu = length(a * dir);
+    for (int k = 0; k <= kSteps; ++k) {
+      const float t = target_out - (target_out - target_in) * float(k) / kSteps;
+      const Vec3f y = p + dir * (t / mu);
+      const MetricNearest m = nearest_in_metric(c, y);
+      if (m.distance >= lo && m.distance <= hi) {
+        *out = y;
+        return true;
+      }
+    }
+    return false;
+  };
+  Vec3f y;
+  if (search_ray(u, &y)) return y;
+  Vec3f best_y = x;
+  float best_dot = -2;
+  for (float w : {0.25f, 0.5f, 1.0f, 2.0f})
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          if (dx == 0 && dy == 0 && dz == 0) continue;
+          const Vec3f dir = normalized(u + normalized(Vec3f{float(dx), float(dy), float(dz)}) * w);
+          if (length2(dir) == 0 || dot(dir, u) <= best_dot) continue;
+          if (search_ray(dir, &y)) best_y = y, best_dot = dot(dir, u);
+        }
+  if (best_dot > -2) return best_y;
   return x;  // best effort
 }
 

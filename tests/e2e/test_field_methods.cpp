@@ -209,5 +209,22 @@ TEST(FieldMethods, ParametersAreDerivedValidatedAndReported) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
 }
 
+TEST(FieldMethodsCli, OptionsAndErrorMessages) {
+  const test::TempDir dir;
+  const std::string in = test::data_file("ply/cube_2366_particles.ply");
+  std::string out;
+  EXPECT_NE(test::run_command(test::cli() + " surface " + in + " -o " + dir.file("a.ply") + " --field blobby -q", &out), 0);  // CLI11 refuses it (exit 105)
+  EXPECT_NE(out.find("field"), std::string::npos) << out;
+  EXPECT_EQ(test::run_command(test::cli() + " surface " + in + " -o " + dir.file("a.ply") + " --iso 0.3 -q", &out), 2);
+  EXPECT_NE(out.find("iso"), std::string::npos) << out;
+  EXPECT_EQ(test::run_command(test::cli() + " surface " + in + " -o " + dir.file("a.ply") + " --velocity-weighted -q", &out), 2);
+  EXPECT_NE(out.find("velocity"), std::string::npos) << out;
+  EXPECT_EQ(test::run_command(test::cli() + " surface " + in + " -o " + dir.file("a.ply") +
+                                  " --field sph --kernel-radius 0.1 --smooth-particles 0.3 -q --stats " + dir.file("a.json"), &out), 0) << out;
+  EXPECT_EQ(test::run_command(test::cli() + " surface " + in + " -o " + dir.file("b.ply") + " -q", &out), 0) << out;
+  EXPECT_EQ(test::run_command(test::cli() + " inspect " + dir.file("b.ply") + " --previous " + dir.file("a.ply"), &out), 0);
+  EXPECT_NE(out.find("flicker"), std::string::npos) << out;
+}
+
 }  // namespace
 }  // namespace meniscus

@@ -122,6 +122,13 @@ const std::vector<Key>& keys() {
       MENISCUS_NUMBER_KEY(transfer_radius),
       MENISCUS_INT_KEY(threads),
       MENISCUS_NUMBER_KEY(max_memory_gb),
+      Key{"field", [](Params& p, std::string_view k, const json& v) { p.field = parse_field(as_string(k, v)); }},
+      MENISCUS_NUMBER_KEY(iso),
+      MENISCUS_NUMBER_KEY(kernel_radius),
+      MENISCUS_NUMBER_KEY(smooth_particles),
+      Key{"velocity_weighted", [](Params& p, std::string_view k, const json& v) { p.velocity_weighted = as_bool(k, v); }},
+      MENISCUS_NUMBER_KEY(velocity_reference),
+      MENISCUS_NUMBER_KEY(velocity_min_weight),
       Key{"backend", [](Params& p, std::string_view k, const json& v) { p.backend = parse_backend(as_string(k, v)); }},
       // The controls: applied before the keys above by params_from_json.
       Key{"preset", [](Params& p, std::string_view k, const json& v) { apply_preset(p, as_string(k, v)); }},

@@ -41,11 +41,30 @@ const char* to_string(Backend b) {
   return "?";
 }
 
+const char* to_string(FieldMethod f) {
+  switch (f) {
+    case FieldMethod::distance: return "distance";
+    case FieldMethod::metaball: return "metaball";
+    case FieldMethod::sph: return "sph";
+    case FieldMethod::zhu_bridson: return "zhu-bridson";
+    case FieldMethod::anisotropic: return "anisotropic";
+  }
+  return "?";
+}
+
 Backend parse_backend(const std::string& name) {
   if (name == "auto") return Backend::automatic;
   if (name == "cpu") return Backend::cpu;
   if (name == "cuda") return Backend::cuda;
   throw InvalidParameter(fmt::format("backend: unknown backend '{}' (expected auto, cpu or cuda)", name));
+}
+
+FieldMethod parse_field(const std::string& name) {
+  for (FieldMethod f : {FieldMethod::distance, FieldMethod::metaball, FieldMethod::sph, FieldMethod::zhu_bridson,
+                        FieldMethod::anisotropic})
+    if (name == to_string(f)) return f;
+  throw InvalidParameter(fmt::format(
+      "field: unknown field method '{}' (expected distance, metaball, sph, zhu-bridson or anisotropic)", name));
 }
 
 namespace {
@@ -78,6 +97,16 @@ void Params::validate() const {
   require(steps_free >= 0, "steps_free", steps_free, "must be ≥ 0");
   require(std::isfinite(relax) && relax > 0 && relax <= 1, "relax", relax, "must be in (0, 1]");
   require(std::isfinite(relax_b) && relax_b > 0 && relax_b < 2, "relax_b", relax_b, "must be in (0, 2)");
+  require(std::isfinite(iso) && iso >= 0, "iso", iso, "must be finite and ≥ 0 (0 = derive)");
+  require(iso == 0 || field != FieldMethod::distance, "iso", iso,
+          "applies to --field metaball, sph, zhu-bridson and anisotropic; the distance field's level is r_outer");
+  length_param("kernel_radius", kernel_radius);
+  require(std::isfinite(smooth_particles) && (smooth_particles == -1 || (smooth_particles >= 0 && smooth_particles <= 1)),
+          "smooth_particles", smooth_particles, "must be in [0, 1] (−1 = derive)");
+  require(std::isfinite(velocity_reference) && velocity_reference >= 0, "velocity_reference", velocity_reference,
+          "must be ≥ 0 (0 = the 95th percentile of the particle speeds)");
+  require(std::isfinite(velocity_min_weight) && velocity_min_weight > 0 && velocity_min_weight <= 1,
+          "velocity_min_weight", velocity_min_weight, "must be in (0, 1]");
   require(rebuild_b >= 0, "rebuild_b", rebuild_b, "must be ≥ 0");
   require(threads >= 0, "threads", threads, "must be ≥ 0 (0 = all cores)");
   require(std::isfinite(max_memory_gb) && max_memory_gb >= 0, "max_memory_gb", max_memory_gb, "must be ≥ 0");

@@ -17,7 +17,9 @@
 
 #include "cuda/pipeline_cuda.hpp"
 #include "extract/extract.hpp"
+#include "field/anisotropy.hpp"
 #include "field/distance_field.hpp"
+#include "field/kernel_field.hpp"
 #include "grid/hash_grid.hpp"
 #include "mesh/voids.hpp"
 #include "meniscus/backend.hpp"
@@ -108,6 +110,61 @@ std::vector<uint64_t> checked_band_blocks(const HashGrid& grid, const SampleLatt
   return keys;
 }
 
+/// The particles' attribute with one of these names and this many components, or nullptr.
+const Attribute* find_attribute(const ParticleSet& particles, std::initializer_list<const char*> names, int components) {
+  for (const char* name : names)
+    if (const Attribute* a = particles.find(name); a && a->components == components) return a;
+  return nullptr;
+}
+
+/// SPH volumes m_i/ρ_i per original particle (Müller et al. 2003): mass/density when the particles
+/// carry both, d³·median(ρ)/ρ_i with a density only (uniform mass), empty (uniform d³) otherwise.
+std::vector<float> particle_volumes(const ParticleSet& particles, double d) {
+  const Attribute* density = find_attribute(particles, {"density", "rho", "dens"}, 1);
+  if (!density) return {};
+  const Attribute* mass = find_attribute(particles, {"mass", "m"}, 1);
+  std::vector<float> rho = density->values;
+  auto mid = rho.begin() + std::ptrdiff_t(rho.size() / 2);
+  std::nth_element(rho.begin(), mid, rho.end());
+  const double rho0 = *mid;
+  if (!(rho0 > 0)) return {};
+  std::vector<float> v(particles.size());
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const double r = density->values[i] > 0 ? double(density->values[i]) : rho0;
+    v[i] = float(mass && mass->values[i] > 0 ? double(mass->values[i]) / r : d * d * d * rho0 / r);
+  }
+  return v;
+}
+
+template <class T>
+std::vector<T> to_sorted_order(const HashGrid& grid, const std::vector<T>& original) {
+  std::vector<T> out(original.size());
+  const auto order = grid.order();
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = original[order[i]];
+  return out;
+}
+
+/// Per-vertex damping factors of the velocity weighting: clamp(1 − speed/v_ref, w_min, 1).
+std::vector<float> velocity_weights(const Attribute& velocity, const HashGrid& grid, std::span<const Vec3f> vertices,
+                                    Params& p) {
+  if (p.velocity_reference == 0) {
+    std::vector<float> speed(velocity.size());
+    for (std::size_t i = 0; i < speed.size(); ++i)
+      speed[i] = length(Vec3f{velocity.values[3 * i], velocity.values[3 * i + 1], velocity.values[3 * i + 2]});
+    auto q = speed.begin() + std::ptrdiff_t(double(speed.size() - 1) * 0.95);
+    std::nth_element(speed.begin(), q, speed.end());
+    p.velocity_reference = speed.empty() ? 0.0 : double(*q);
+  }
+  std::vector<float> w(vertices.size(), 1.0f);
+  if (!(p.velocity_reference > 0)) return w;  // nothing moves: smooth everywhere
+  const Attribute v = transfer_attribute(velocity, grid, vertices, float(p.transfer_radius));
+  for (std::size_t i = 0; i < w.size(); ++i) {
+    const float speed = length(Vec3f{v.values[3 * i], v.values[3 * i + 1], v.values[3 * i + 2]});
+    w[i] = std::clamp(1.0f - speed / float(p.velocity_reference), float(p.velocity_min_weight), 1.0f);
+  }
+  return w;
+}
+
 }  // namespace
 
 double estimate_spacing(const ParticleSet& particles, std::size_t max_samples) {
@@ -169,6 +226,18 @@ Params resolve_params(const ParticleSet& particles, const Params& in) {
   if (p.r_outer == 0) p.r_outer = std::max(p.r_outer_factor * d, in.r_inner > 0 ? in.r_inner * 2 : 0.0);
   if (p.r_inner == 0) p.r_inner = 0.5 * p.r_outer;
   if (p.transfer_radius == 0) p.transfer_radius = 2 * d;
+  if (p.kernel_radius == 0 && p.field != FieldMethod::distance) p.kernel_radius = 2 * d;
+  if (p.smooth_particles == -1) p.smooth_particles = p.field == FieldMethod::anisotropic ? 0.9 : 0.0;
+  if (p.iso == 0) switch (p.field) {
+      case FieldMethod::distance: break;
+      case FieldMethod::metaball: p.iso = 0.5 * metaball_bulk_value(p.kernel_radius, d); break;
+      case FieldMethod::sph:
+      case FieldMethod::anisotropic: p.iso = 0.5; break;
+      case FieldMethod::zhu_bridson: p.iso = p.r_outer; break;
+    }
+  if (p.field == FieldMethod::zhu_bridson && p.iso >= p.kernel_radius)
+    throw InvalidParameter(fmt::format("iso = {:g}: the zhu-bridson radius must be smaller than kernel_radius ({:g})",
+                                       p.iso, p.kernel_radius));
   if (p.threads == 0) p.threads = tbb::info::default_concurrency();
   if (p.max_memory_gb == 0) p.max_memory_gb = 0.9 * physical_memory_gb();
   p.validate();
@@ -187,6 +256,10 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
       throw InvalidParameter(fmt::format("transfer: the particles have no attribute '{}' (they have: {})", name,
                                          available.empty() ? "none" : available));
     }
+  const Attribute* velocity = find_attribute(particles, {"v", "vel", "velocity"}, 3);
+  if (params.velocity_weighted && !velocity)
+    throw InvalidParameter("velocity_weighted: the particles have no velocity attribute (v, vel or velocity with 3 "
+                           "components); surface without --velocity-weighted");
 
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
                               std::size_t(params.threads > 0 ? params.threads : tbb::info::default_concurrency()));
@@ -207,7 +280,19 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
         fmt::format("erode {:g} exceeds half a voxel ({:g}); large erosion can self-intersect", p.erode, h / 2));
 
   // Backend: cuda when asked (refused without a device) or, for auto, when a device is there.
-  if (p.backend != Backend::cpu) {
+  // The kernel fields, particle smoothing and velocity weighting (issue #7) run on the CPU only.
+  std::string cpu_only;
+  if (p.field != FieldMethod::distance)
+    cpu_only = fmt::format("--field {}", to_string(p.field));
+  else if (p.smooth_particles > 0)
+    cpu_only = "--smooth-particles";
+  else if (p.velocity_weighted)
+    cpu_only = "--velocity-weighted";
+  if (p.backend == Backend::cuda && !cpu_only.empty())
+    throw InvalidParameter(fmt::format("--backend cuda: {} runs on the CPU backend only; use --backend cpu or auto", cpu_only));
+  if (p.backend != Backend::cpu && !cpu_only.empty() && cuda_built())
+    stats.warnings.push_back(fmt::format("backend auto: {} runs on the CPU backend only; running on the CPU", cpu_only));
+  if (p.backend != Backend::cpu && cpu_only.empty()) {
     std::string why;
     const bool have_device = !cuda_devices(&why).empty();
     if (p.backend == Backend::cuda && !have_device)
@@ -232,22 +317,61 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
   stats.backend = "cpu";
 
   const float r_outer = float(p.r_outer), r_inner = float(p.r_inner);
+  const bool anisotropic = p.field == FieldMethod::anisotropic;
+  // Kernel centres: the particles, Laplacian-smoothed when asked (Yu & Turk §5); the constraints
+  // use the centres too, so the surface follows the smoothed positions.
+  std::vector<Ellipsoid> ellipsoids;  // original order
+  const std::vector<Vec3f> centres = [&] {
+    if (p.smooth_particles == 0 && !anisotropic) return std::vector<Vec3f>{};
+    return timer.run("particles", [&] {
+      const float pca_radius = float(2 * p.kernel_radius);
+      const HashGrid raw(particles.positions, float(std::max(2 * d, anisotropic ? double(pca_radius) : 0.0)));
+      if (anisotropic) {
+        AnisotropyConstants k;
+        k.bulk_variance = yu_turk_bulk_variance(pca_radius);
+        ellipsoids = yu_turk_ellipsoids(raw, pca_radius, k);
+      }
+      return p.smooth_particles > 0 ? smooth_positions(raw, float(2 * d), float(p.smooth_particles))
+                                    : particles.positions;
+    });
+  }();
+  const std::span<const Vec3f> positions = centres.empty() ? std::span<const Vec3f>(particles.positions) : centres;
   // Cells of 2·r_outer: a nearest-particle query for a vertex near the surface then touches
   // about 8 cells of a few particles each, far fewer hash lookups than with r_outer cells.
-  const HashGrid grid = timer.run("grid", [&] { return HashGrid(particles.positions, 2 * r_outer); });
+  const HashGrid grid = timer.run("grid", [&] { return HashGrid(positions, 2 * r_outer); });
+  const std::vector<Ellipsoid> sorted_ellipsoids = to_sorted_order(grid, ellipsoids);
 
   SampleLattice lattice;
   lattice.kind = p.extract == Extractor::tiles ? SampleLattice::Kind::a15 : SampleLattice::Kind::cubic;
   lattice.cell_size = float(p.extract == Extractor::tiles ? 2 * h : h);
-  const float band = field_band(p);
   const double max_bytes = p.max_memory_gb * 1e9;
 
   ExtractResult extracted = [&] {
+    if (p.field == FieldMethod::distance) {
+      const float band = field_band(p);
+      const SparseField field = timer.run("field", [&] {
+        return distance_field(grid, lattice, band, checked_band_blocks(grid, lattice, band, max_bytes, p));
+      });
+      stats.field_blocks = field.block_count();
+      return timer.run("extract", [&] { return extract_surface(field, r_outer, p.extract); });
+    }
+    KernelFieldInput in;
+    in.centres = &grid;
+    in.method = p.field;
+    in.kernel_radius = float(p.kernel_radius);
+    in.iso = float(p.iso);
+    in.uniform_volume = float(d * d * d);
+    const std::vector<float> volumes = p.field == FieldMethod::sph || anisotropic
+                                           ? to_sorted_order(grid, particle_volumes(particles, d))
+                                           : std::vector<float>{};
+    in.volumes = volumes;
+    in.ellipsoids = sorted_ellipsoids;
     const SparseField field = timer.run("field", [&] {
-      return distance_field(grid, lattice, band, checked_band_blocks(grid, lattice, band, max_bytes, p));
+      const float band = kernel_support(in) + float(h);
+      return kernel_field(in, lattice, checked_band_blocks(grid, lattice, band, max_bytes, p));
     });
     stats.field_blocks = field.block_count();
-    return timer.run("extract", [&] { return extract_surface(field, r_outer, p.extract); });
+    return timer.run("extract", [&] { return extract_surface(field, 0.0f, p.extract); });
   }();
   stats.dropped_triangles = extracted.dropped_triangles;
   TriangleMesh& mesh = result.mesh;
@@ -267,10 +391,23 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
     o.relax_b = float(p.relax_b);
     o.solver = p.solver;
     o.rebuild_b = p.rebuild_b;
-    const ShellConstraint constraint{&grid, r_inner, r_outer};
-    smooth_surface(mesh.vertices, mesh.triangles, &constraint, o,
-                   [&](double f) { if (progress) progress("smooth", f); });
+    std::vector<float> weights;
+    if (p.velocity_weighted) {
+      weights = velocity_weights(*velocity, grid, mesh.vertices, p);
+      o.vertex_relax = weights;
+    }
+    const auto tick = [&](double f) { if (progress) progress("smooth", f); };
+    if (anisotropic) {
+      float max_axis = 0;
+      for (const Ellipsoid& e : sorted_ellipsoids) max_axis = std::max(max_axis, e.max_axis);
+      const EllipsoidConstraint constraint{&grid, sorted_ellipsoids, r_inner, r_outer, max_axis};
+      smooth_surface(mesh.vertices, mesh.triangles, &constraint, o, tick);
+    } else {
+      const ShellConstraint constraint{&grid, r_inner, r_outer};
+      smooth_surface(mesh.vertices, mesh.triangles, &constraint, o, tick);
+    }
   });
+  result.params = p;  // velocity_reference as used
 
   if (p.erode > 0)
     stats.flipped_triangles = timer.run("erode", [&] { return erode(mesh.vertices, mesh.triangles, float(p.erode)); });
@@ -319,6 +456,10 @@ std::string stats_to_json(const Result& result) {
   q["r_outer_factor"] = p.r_outer_factor;
   q["extract"] = to_string(p.extract);
   q["keep_voids"] = p.keep_voids;
+  q["field"] = to_string(p.field);
+  q["iso"] = p.iso;
+  q["kernel_radius"] = p.kernel_radius;
+  q["smooth_particles"] = p.smooth_particles;
   q["steps_a"] = p.steps_a;
   q["steps_b"] = p.steps_b;
   q["steps_free"] = p.steps_free;
@@ -326,6 +467,9 @@ std::string stats_to_json(const Result& result) {
   q["relax_b"] = p.relax_b;
   q["solver"] = to_string(p.solver);
   q["rebuild_b"] = p.rebuild_b;
+  q["velocity_weighted"] = p.velocity_weighted;
+  q["velocity_reference"] = p.velocity_reference;
+  q["velocity_min_weight"] = p.velocity_min_weight;
   q["erode"] = p.erode;
   q["transfer"] = p.transfer;
   q["transfer_radius"] = p.transfer_radius;

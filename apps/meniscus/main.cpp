@@ -16,6 +16,8 @@
 #include <cstdio>
 #include <exception>
 #include <filesystem>
+#include <fstream>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -41,6 +43,7 @@ constexpr int kExitUsage = 2;
 struct SurfaceArgs {
   std::string input, output, stats_path, preview_path, extract = "tiles", solver = "gauss-seidel", up = "z";
   std::string backend = "auto";
+  std::string field = "distance";
   std::string frames, field_path;
   std::vector<std::string> columns;
   int jobs = 1;
@@ -81,6 +84,23 @@ void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   cmd.add_option("--extract", a.extract, "extractor: tiles (Marching Tiles), cubes, tetrahedra")
       ->check(CLI::IsMember({"tiles", "cubes", "tetrahedra"}))->capture_default_str();
+  cmd.add_option("--field", a.field, "field method: distance, metaball, sph, zhu-bridson, anisotropic (README: Field methods)")
+      ->check(CLI::IsMember({"distance", "metaball", "sph", "zhu-bridson", "anisotropic"}))->capture_default_str();
+  cmd.add_option("--iso", p.iso, "level of the field (metaball/sph/anisotropic: density threshold, default half the "
+                                  "value inside the fluid; zhu-bridson: particle radius, default r_outer)")
+      ->check(CLI::PositiveNumber);
+  cmd.add_option("--kernel-radius", p.kernel_radius, "support radius of the field kernels (default 2 d)")
+      ->check(CLI::PositiveNumber);
+  cmd.add_option("--smooth-particles", p.smooth_particles,
+                 "λ in [0, 1]: Laplacian smoothing of the particle positions before the field (default 0; 0.9 with "
+                 "--field anisotropic)");
+  cmd.add_flag("--velocity-weighted", p.velocity_weighted,
+               "smooth fast (splashing) fluid less than calm fluid; needs a velocity attribute (v, vel, velocity)");
+  cmd.add_option("--velocity-reference", p.velocity_reference,
+                 "speed at which the smoothing reaches its minimum (default: 95th percentile of the particle speeds)")
+      ->check(CLI::PositiveNumber);
+  cmd.add_option("--velocity-min-weight", p.velocity_min_weight, "smallest smoothing factor of fast fluid, in (0, 1]")
+      ->capture_default_str();
   cmd.add_option("--erode", p.erode, "move the surface inwards by this distance")->check(CLI::NonNegativeNumber);
   cmd.add_option("--transfer", p.transfer, "particle attributes to carry onto the vertices (comma separated)")
       ->delimiter(',');
@@ -146,6 +166,13 @@ void apply_artist_controls(const CLI::App& cmd, SurfaceArgs& a) {
   take("--max-memory", &Params::max_memory_gb);
   take("--keep-voids", &Params::keep_voids);
   take("--backend", &Params::backend);
+  take("--field", &Params::field);
+  take("--iso", &Params::iso);
+  take("--kernel-radius", &Params::kernel_radius);
+  take("--smooth-particles", &Params::smooth_particles);
+  take("--velocity-weighted", &Params::velocity_weighted);
+  take("--velocity-reference", &Params::velocity_reference);
+  take("--velocity-min-weight", &Params::velocity_min_weight);
   p.detail = layered.detail;  // no options of their own but --detail and --preset, applied above
   p.r_outer_factor = layered.r_outer_factor;
 }
@@ -163,6 +190,12 @@ void write_text_file(const std::string& path, const std::string& text) {
   io::AtomicFile file(path);
   file.write(text.data(), text.size());
   file.commit();
+}
+
+std::string read_text_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(fmt::format("{}: cannot open", path));
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
 void check_output_format(const std::string& output) {
@@ -247,6 +280,47 @@ void print_summary(const SurfaceArgs& a, const FrameFiles& f, const Result& resu
   fmt::print(stderr, "wrote {}{}{}\n", f.output, f.preview.empty() ? "" : ", " + f.preview, f.stats.empty() ? "" : ", " + f.stats);
 }
 
+/// Frame-to-frame flicker of a sequence (DESIGN §5): each surfaced frame is compared with the one
+/// before it in the frame list (when both succeeded), whatever order the jobs finish in; a mesh
+/// is kept only until both of its pairs are settled. Not thread-safe: callers hold a lock.
+class SequenceFlicker {
+ public:
+  explicit SequenceFlicker(std::size_t frames) : status_(frames, kPending), flicker_(frames) {}
+  /// Records frame i's result (mesh == nullptr: it failed); returns the frames whose flicker
+  /// became known.
+  std::vector<std::size_t> settle(std::size_t i, TriangleMesh* mesh) {
+    status_[i] = mesh ? kDone : kFailed;
+    if (mesh) meshes_[i] = std::move(*mesh);
+    std::vector<std::size_t> known;
+    for (std::size_t k : {i, i + 1}) {
+      if (k == 0 || k >= status_.size() || status_[k - 1] != kDone || status_[k] != kDone) continue;
+      flicker_[k] = distance_to_surface(meshes_.at(k).vertices, meshes_.at(k - 1));
+      known.push_back(k);
+    }
+    for (std::size_t k : {i == 0 ? i : i - 1, i, i + 1}) {  // drop meshes no pair needs any more
+      if (k >= status_.size() || !meshes_.count(k)) continue;
+      const bool before = k == 0 || status_[k - 1] != kPending;
+      const bool after = k + 1 == status_.size() || status_[k + 1] != kPending;
+      if (before && after) meshes_.erase(k);
+    }
+    return known;
+  }
+  const std::optional<SurfaceDistanceReport>& flicker(std::size_t k) const { return flicker_[k]; }
+
+ private:
+  enum Status : char { kPending, kDone, kFailed };
+  std::vector<Status> status_;
+  std::map<std::size_t, TriangleMesh> meshes_;
+  std::vector<std::optional<SurfaceDistanceReport>> flicker_;
+};
+
+/// Adds the flicker against the previous frame to a frame's stats file.
+void add_flicker_to_stats(const std::string& path, int previous_frame, const SurfaceDistanceReport& f) {
+  nlohmann::ordered_json j = nlohmann::ordered_json::parse(read_text_file(path));
+  j["flicker"] = {{"previous_frame", previous_frame}, {"mean", f.mean}, {"p95", f.p95}, {"max", f.max}};
+  write_text_file(path, j.dump(2) + "\n");
+}
+
 /// A sequence: every frame of the input pattern, in order, one progress bar; a failed frame is
 /// reported with its number and the others go on unless --fail-fast.
 int run_sequence(const SurfaceArgs& a, const FramePattern& in) {
@@ -269,6 +343,11 @@ int run_sequence(const SurfaceArgs& a, const FramePattern& in) {
   std::size_t done = 0, triangles = 0;
   std::atomic<std::size_t> next{0};
   std::atomic<bool> stop{false};
+  SequenceFlicker flicker(frames.size());
+  auto record_flicker = [&](std::size_t i, TriangleMesh* mesh) {  // with the mutex held
+    for (std::size_t k : flicker.settle(i, mesh))
+      if (stats) add_flicker_to_stats(stats->format(frames[k]), frames[k - 1], *flicker.flicker(k));
+  };
   const int jobs = std::max(1, std::min<int>(a.jobs, int(frames.size())));
   auto worker = [&] {
     for (;;) {
@@ -279,7 +358,7 @@ int run_sequence(const SurfaceArgs& a, const FramePattern& in) {
       FrameFiles f{in.format(frame), out->format(frame), stats ? stats->format(frame) : "",
                    preview ? preview->format(frame) : "", field ? field->format(frame) : ""};
       try {
-        const Result r = surface_one(a, f, false, [&](std::string_view stage, double fraction) {
+        Result r = surface_one(a, f, false, [&](std::string_view stage, double fraction) {
           if (jobs > 1) return;
           std::lock_guard lock(mutex);
           bar.update(fmt::format("frame {} {}", frame, stage), (double(done) + fraction) / double(frames.size()));
@@ -287,11 +366,16 @@ int run_sequence(const SurfaceArgs& a, const FramePattern& in) {
         std::lock_guard lock(mutex);
         ++done;
         triangles += r.stats.triangles;
+        record_flicker(i, &r.mesh);
         bar.update(fmt::format("frame {}", frame), double(done) / double(frames.size()));
       } catch (const std::exception& e) {
         std::lock_guard lock(mutex);
         ++done;
         failed.push_back(frame);
+        try {
+          record_flicker(i, nullptr);
+        } catch (const std::exception&) {
+        }
         bar.finish();
         fmt::print(stderr, "meniscus: frame {}: error: {}\n", frame, e.what());
         if (a.fail_fast) stop = true;
@@ -305,6 +389,13 @@ int run_sequence(const SurfaceArgs& a, const FramePattern& in) {
   bar.finish();
   std::sort(failed.begin(), failed.end());
   const std::size_t ok = done - failed.size();
+  double flicker_sum = 0, flicker_max = 0;
+  std::size_t flicker_count = 0;
+  for (std::size_t k = 0; k < frames.size(); ++k)
+    if (const auto& f = flicker.flicker(k)) flicker_sum += f->mean, flicker_max = std::max(flicker_max, f->max), ++flicker_count;
+  if (!a.quiet && flicker_count > 0)
+    fmt::print(stderr, "flicker (vertex distance to the previous frame's surface): mean {:.4g} over {} frame pairs, max {:.4g}\n",
+               flicker_sum / double(flicker_count), flicker_count, flicker_max);
   if (!a.quiet || !failed.empty())
     fmt::print(stderr, "{} of {} frames surfaced ({} triangles) in {:.2f}s{}{}\n", ok, frames.size(), triangles,
                seconds_since(t0), failed.empty() ? "" : fmt::format("; failed: {}", fmt::join(failed, ", ")),
@@ -316,6 +407,7 @@ int run_surface(const CLI::App& cmd, SurfaceArgs& a) {
   a.params.extract = parse_extractor(a.extract);
   a.params.solver = parse_solver(a.solver);
   a.params.backend = parse_backend(a.backend);
+  a.params.field = parse_field(a.field);
   apply_artist_controls(cmd, a);
   if (a.detail && cmd.count("--voxel-size") && !a.quiet)
     fmt::print(stderr, "warning: --detail is ignored: --voxel-size {:g} is given\n", a.params.voxel_size);
@@ -473,7 +565,7 @@ int run_render(const RenderArgs& a) {
 }
 
 struct InspectArgs {
-  std::string mesh, particles;
+  std::string mesh, particles, previous;
   double r_inner = 0, r_outer = 0, spacing = 0;
   bool json = false;
 };
@@ -519,6 +611,10 @@ int run_inspect(const InspectArgs& a) {
                       {"share_outside_surface", double(outside) / double(std::max<std::size_t>(ps.size(), 1))},
                       {"volume_over_particle_volume", volume / particle_volume}};
   }
+  if (!a.previous.empty()) {
+    const SurfaceDistanceReport f = distance_to_surface(mesh.vertices, read_mesh(a.previous));
+    j["flicker"] = {{"previous", a.previous}, {"mean", f.mean}, {"p95", f.p95}, {"max", f.max}};
+  }
   if (a.json) {
     fmt::print("{}\n", j.dump(2));
     return 0;
@@ -544,6 +640,10 @@ int run_inspect(const InspectArgs& a) {
                q["outside_surface"].get<std::size_t>(), 100.0 * q["share_outside_surface"].get<double>(),
                q["volume_over_particle_volume"].get<double>());
   }
+  if (j.contains("flicker"))
+    fmt::print("flicker (distance of each vertex to {}): mean {:.4g}, 95th percentile {:.4g}, max {:.4g}\n",
+               a.previous, j["flicker"]["mean"].get<double>(), j["flicker"]["p95"].get<double>(),
+               j["flicker"]["max"].get<double>());
   return 0;
 }
 
@@ -581,6 +681,8 @@ int main(int argc, char** argv) {
   inspect_cmd->add_option("--r-inner", inspect.r_inner, "inner constraint radius (default 0.5 r_outer)")
       ->check(CLI::PositiveNumber);
   inspect_cmd->add_option("--r-outer", inspect.r_outer, "outer constraint radius (default 1.0 d)")->check(CLI::PositiveNumber);
+  inspect_cmd->add_option("--previous", inspect.previous,
+                          "the previous frame's mesh: flicker = distance of each vertex to its surface");
   inspect_cmd->add_flag("--json", inspect.json, "print the metrics as JSON");
   CLI::App* info_cmd = app.add_subcommand("info", "version, backends, threads and formats");
   RenderArgs render;

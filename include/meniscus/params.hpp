@@ -13,9 +13,14 @@ enum class SmoothingSolver { jacobi, gauss_seidel };
 /// Where the pipeline runs: `automatic` uses the CUDA backend when it is built and a device is
 /// there (else the CPU, with a warning in Stats when CUDA was built but no device is usable).
 enum class Backend { automatic, cpu, cuda };
+/// The scalar field whose level set is the initial surface (DESIGN §1.2).
+enum class FieldMethod { distance, metaball, sph, zhu_bridson, anisotropic };
 
 const char* to_string(Extractor e);
 const char* to_string(SmoothingSolver s);
+const char* to_string(FieldMethod f);
+/// Parses "distance" | "metaball" | "sph" | "zhu-bridson" | "anisotropic"; throws InvalidParameter.
+FieldMethod parse_field(const std::string& name);
 /// Parses "tiles" | "cubes" | "tetrahedra"; throws InvalidParameter otherwise.
 Extractor parse_extractor(const std::string& name);
 /// Parses "jacobi" | "gauss-seidel"; throws InvalidParameter otherwise.
@@ -37,6 +42,21 @@ struct Params {
   double r_outer_factor = 1.0;
   double r_inner = 0;          ///< vertices are kept at least this far from particles; 0: 0.5 d
   Extractor extract = Extractor::tiles;
+
+  // --- field method (DESIGN §1.2; README "Field methods") ---------------------------------------
+  FieldMethod field = FieldMethod::distance;
+  /// Level of the field that is the surface; 0: derive. metaball, sph, anisotropic: a density
+  /// threshold, default half the field's value inside a uniform fluid of spacing d (metaball
+  /// 0.1197 (R/d)³, sph and anisotropic 0.5); zhu-bridson: the particle radius r̄, default r_outer.
+  /// The distance field's level is always r_outer (iso must stay 0 there).
+  double iso = 0;
+  /// Support radius R of the kernels (metaball, sph, zhu-bridson; for anisotropic the bulk
+  /// support, the PCA neighbourhood being 2R as Yu & Turk's 2h); 0: 2 d. Unused by distance.
+  double kernel_radius = 0;
+  /// Laplacian smoothing of the particle positions before the field, x ← (1−λ)x + λ·(weighted
+  /// mean of the neighbours within 2d, weights 1 − (r/2d)³); the constraints use the smoothed
+  /// positions. −1: derive (0.9 for anisotropic as Yu & Turk's kernel centres, 0 otherwise).
+  double smooth_particles = -1;
   /// Keep interior voids smaller than (2d)³ (closed inward-facing components: gaps in the
   /// particle sampling, which the smoothing would collapse); by default they are removed.
   bool keep_voids = false;
@@ -49,6 +69,12 @@ struct Params {
   double relax_b = 1.0;        ///< damping of the B sweeps (halved automatically when energy rises)
   SmoothingSolver solver = SmoothingSolver::gauss_seidel;
   int rebuild_b = 0;           ///< rebuild the B operator every k sweeps; 0: build once after A
+  /// Per-vertex smoothing strength from the particle speed (needs a velocity attribute: v, vel
+  /// or velocity): vertex i's damping is ω·clamp(1 − speed_i / velocity_reference, velocity_min_weight, 1)
+  /// with speed_i the transferred particle speed — calm water is smoothed fully, splashes less.
+  bool velocity_weighted = false;
+  double velocity_reference = 0;     ///< v_ref; 0: the 95th percentile of the particle speeds
+  double velocity_min_weight = 0.2;  ///< w_min, in (0, 1]
 
   // --- post-processing ------------------------------------------------------------------------
   double erode = 0;                    ///< move vertices inwards along the normal by this much

@@ -67,6 +67,16 @@ struct PlaneFit {
 /// Least-squares plane through the points (smallest eigenvector of the covariance).
 PlaneFit fit_plane(std::span<const Vec3f> points);
 
+struct SurfaceDistanceReport {
+  double mean = 0, p95 = 0, max = 0;  ///< over the points: distance to the closest surface point
+  std::size_t count = 0;
+};
+/// Distance of every point to the closest point of the triangles of `surface` (a uniform grid of
+/// the triangles' bounding boxes, searched ring by ring until no unvisited cell can be nearer).
+/// The frame-to-frame flicker of a sequence is distance_to_surface(frame t's vertices, frame
+/// t−1's mesh). An empty surface gives count 0 and zeros. Parallel over the points.
+SurfaceDistanceReport distance_to_surface(std::span<const Vec3f> points, const TriangleMesh& surface);
+
 /// How many of `points` lie outside the closed mesh (ray parity along +x through a 2-D bucket
 /// grid of the triangles; rays are nudged off exact edges). Meaningful for closed meshes.
 std::size_t points_outside(const TriangleMesh& mesh, std::span<const Vec3f> points);

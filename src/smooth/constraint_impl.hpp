@@ -5,6 +5,7 @@
 #include <cstdint>
 
 #include "grid/hash_grid_impl.hpp"
+#include "field/eigen_sym3_impl.hpp"
 #include "meniscus/vec.hpp"
 
 namespace meniscus {
@@ -110,6 +111,30 @@ MENISCUS_HD Vec3f project_vertex_on(const Grid& g, Vec3f x, float r_inner, float
   return project_with(
       x, r_inner, r_outer, g.points(), [&](Vec3f y) { return constraint_nearest(g, y, r_outer); },
       [&](Vec3f y) { return clear_of_inner_shells(g, y, r_inner); });
+}
+
+}  // namespace meniscus
+
+namespace meniscus {
+
+/// Distance of x from an ellipsoid's centre c in the ellipsoid's metric, |A(x − c)|.
+MENISCUS_HD inline float metric_distance(const SymMat3& a, Vec3f x, Vec3f c) { return length(a * (x - c)); }
+
+/// Moves x along the line from the ellipsoid's centre c (the metric's radial direction, the
+/// ellipsoid analogue of Williams' radial projection) onto the shell r_inner ≤ |A(x − c)| ≤
+/// r_outer. Not the closest point of the ellipsoid shell, but exact in the metric (the projected
+/// point measures r_inner or r_outer up to rounding) and without iteration. A vertex exactly at
+/// the centre is pushed along +z.
+MENISCUS_HD inline Vec3f project_to_ellipsoid_shell(Vec3f x, Vec3f c, const SymMat3& a, float r_inner, float r_outer) {
+  Vec3f d = x - c;
+  float m = length(a * d);
+  if (m >= r_inner && m <= r_outer) return x;
+  const float target = m < r_inner ? r_inner : r_outer;
+  if (m == 0.0f) {
+    d = Vec3f{0, 0, 1};
+    m = length(a * d);
+  }
+  return c + d * (target / m);
 }
 
 }  // namespace meniscus

@@ -5,6 +5,7 @@
 #include <span>
 #include <vector>
 
+#include "field/kernel_impl.hpp"
 #include "grid/hash_grid.hpp"
 #include "meniscus/vec.hpp"
 
@@ -61,5 +62,33 @@ class NeighbourCache {
 
 /// Projects every vertex in parallel.
 void project_vertices(const ShellConstraint& c, std::span<Vec3f> x);
+
+/// Ellipsoid constraints (anisotropic kernels, Yu & Turk 2010): a vertex x must satisfy
+/// r_inner ≤ |A_P (x − P)| ≤ r_outer for the particle P nearest to it *in that particle's
+/// metric* A_P (argmin_i |A_i (x − P_i)|); with A = I these are Williams' spherical shells.
+struct EllipsoidConstraint {
+  const HashGrid* particles = nullptr;    ///< the kernel centres
+  std::span<const Ellipsoid> ellipsoids;  ///< per sorted particle
+  float r_inner = 0, r_outer = 0;
+  float max_axis = 1;                     ///< max σ̃₁ over the particles (bounds the search)
+};
+
+struct MetricNearest {
+  uint32_t index = kNotFound;  ///< sorted particle index
+  float distance = INFINITY;   ///< |A(x − P)|
+};
+/// The particle nearest to x in its own metric (exact: every particle whose metric distance
+/// can be smaller is within max_axis · distance of x in Euclidean terms).
+MetricNearest nearest_in_metric(const EllipsoidConstraint& c, Vec3f x);
+
+/// Projects one vertex onto the shell of its metric-nearest particle (project_to_ellipsoid_shell,
+/// along the metric radial direction), repeated while that makes another particle the nearest
+/// and violated; a ray search from the first particle settles the rare vertex squeezed between
+/// two shells. Thread-safe.
+Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x);
+
+/// Max over the vertices of the metric distance outside [r_inner, r_outer] to the metric-nearest
+/// particle (the constraint residual of ellipsoid constraints).
+double ellipsoid_constraint_residual(const EllipsoidConstraint& c, std::span<const Vec3f> x);
 
 }  // namespace meniscus

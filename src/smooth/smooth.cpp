@@ -44,15 +44,18 @@ double energy_of(const Adjacency& adj, const CotanOperator& op, std::span<const 
   return bilaplacian_energy(op, scratch);
 }
 
-}  // namespace
-
-SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> triangles,
-                            const ShellConstraint* constraint, const SmoothOptions& o,
-                            const std::function<void(double)>& progress) {
+/// The schedule; `project(i)` projects vertex i in place (when `constrained_any`), `prefetch_constraint(i)`
+/// hints its constraint data.
+template <class Project, class PrefetchConstraint>
+SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triangles, bool constrained_any,
+                         Project&& project_constraint, PrefetchConstraint&& prefetch_constraint,
+                         const SmoothOptions& o, const std::function<void(double)>& progress) {
   SmoothReport report;
   const std::size_t nv = x.size();
   if (nv == 0 || o.steps_a + o.steps_b + o.steps_free == 0) return report;  // no sweep: no set-up either
   const Adjacency adj = build_adjacency(nv, triangles);
+  const bool weighted = o.vertex_relax.size() == nv;
+  auto vertex_factor = [&](uint32_t i) { return weighted ? o.vertex_relax[i] : 1.0f; };
   const bool gauss_seidel = o.solver == SmoothingSolver::gauss_seidel;
   const int total = o.steps_a + o.steps_b + o.steps_free;
   int done = 0;
@@ -60,15 +63,11 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
     ++done;
     if (progress && total > 0) progress(double(done) / total);
   };
-  // Vertices move little per sweep: each keeps a list of its nearby particles, refreshed only
-  // when the vertex has moved too far from where the list was made.
-  NeighbourCache cache;
-  if (constraint) cache.build(*constraint, x);
   auto project = [&](uint32_t i) {
-    if (constraint) x[i] = cache.project(*constraint, i, x[i]);
+    if (constrained_any) project_constraint(i);
   };
   auto prefetch = [&](uint32_t i) {
-    if (constraint) cache.prefetch(i);
+    if (constrained_any) prefetch_constraint(i);
     __builtin_prefetch(&x[i]);
   };
 
@@ -82,13 +81,13 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
       report.colors_a = colors.colors();
       for (int s = 0; s < o.steps_a; ++s, tick()) {
         for_each_in_colors(colors, [&](uint32_t i) {
-          x[i] = x[i] + (neighbour_mean(adj, x, i) - x[i]) * w;
+          x[i] = x[i] + (neighbour_mean(adj, x, i) - x[i]) * (w * vertex_factor(i));
           project(i);
         }, prefetch);
       }
     } else {
       for (int s = 0; s < o.steps_a; ++s, tick()) {
-        for_each_vertex(nv, [&](uint32_t i) { next[i] = x[i] + (neighbour_mean(adj, x, i) - x[i]) * w; });
+        for_each_vertex(nv, [&](uint32_t i) { next[i] = x[i] + (neighbour_mean(adj, x, i) - x[i]) * (w * vertex_factor(i)); });
         x.swap(next);
         for_each_vertex(nv, project);
       }
@@ -109,7 +108,7 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
     report.energy_after_a = energy;
     std::vector<Vec3f> backup;
     for (int s = 0; s < steps_b; ++s) {
-      const bool constrained = s < o.steps_b && constraint != nullptr;
+      const bool constrained = s < o.steps_b && constrained_any;
       if (o.rebuild_b > 0 && s > 0 && s % o.rebuild_b == 0) {
         op = build_cotan_operator(x, triangles, adj);
         energy = energy_of(adj, op, x, scratch);
@@ -121,7 +120,7 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
         // of that ring — no two vertices of a distance-2 colour class share a ring vertex.
         for_each_in_colors(colors, [&](uint32_t i) {
           const Vec3f before = x[i];
-          x[i] -= bilaplacian_row_from_wx(adj, op, scratch, i) * (w / op.b_diag[i]);
+          x[i] -= bilaplacian_row_from_wx(adj, op, scratch, i) * (w * vertex_factor(i) / op.b_diag[i]);
           if (constrained) project(i);
           const Vec3f delta = x[i] - before;
           scratch[i] += delta * op.diag[i];
@@ -137,7 +136,7 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
         for_each_vertex(nv, [&](uint32_t i) { z[i] = scratch[i] / op.area[i]; });
         apply_w(adj, op, z, next);  // next = B x
         for_each_vertex(nv, [&](uint32_t i) {
-          x[i] -= next[i] * (w / op.b_diag[i]);
+          x[i] -= next[i] * (w * vertex_factor(i) / op.b_diag[i]);
           if (constrained) project(i);
         });
       }
@@ -160,6 +159,29 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
     report.relax_b_final = w;
   }
   return report;
+}
+
+}  // namespace
+
+SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> triangles,
+                            const ShellConstraint* constraint, const SmoothOptions& o,
+                            const std::function<void(double)>& progress) {
+  if (x.empty() || o.steps_a + o.steps_b + o.steps_free == 0) return {};
+  // Vertices move little per sweep: each keeps a list of its nearby particles, refreshed only
+  // when the vertex has moved too far from where the list was made.
+  NeighbourCache cache;
+  if (constraint) cache.build(*constraint, x);
+  return smooth_with(
+      x, triangles, constraint != nullptr, [&](uint32_t i) { x[i] = cache.project(*constraint, i, x[i]); },
+      [&](uint32_t i) { cache.prefetch(i); }, o, progress);
+}
+
+SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> triangles,
+                            const EllipsoidConstraint* constraint, const SmoothOptions& o,
+                            const std::function<void(double)>& progress) {
+  return smooth_with(
+      x, triangles, constraint != nullptr, [&](uint32_t i) { x[i] = project_vertex(*constraint, x[i]); },
+      [](uint32_t) {}, o, progress);
 }
 
 }  // namespace meniscus

@@ -4,6 +4,7 @@
 // r_outer of its nearest particle), then a few unconstrained B sweeps that smooth the normals.
 #pragma once
 
+#include <cstddef>
 #include <functional>
 #include <span>
 #include <vector>
@@ -20,6 +21,8 @@ struct SmoothOptions {
   float relax_b = 1.0f;   ///< initial ω of the B sweeps; halved whenever a sweep raises the energy
   SmoothingSolver solver = SmoothingSolver::gauss_seidel;
   int rebuild_b = 0;      ///< rebuild W and D every k B sweeps; 0: once, from the shrunk mesh
+  /// Per-vertex factor in (0, 1] on the damping of every sweep (velocity weighting); empty: 1.
+  std::span<const float> vertex_relax;
 };
 
 struct SmoothReport {
@@ -34,6 +37,17 @@ struct SmoothReport {
 /// `progress` receives the completed fraction of all sweeps.
 SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> triangles,
                             const ShellConstraint* constraint, const SmoothOptions& options,
+                            const std::function<void(double)>& progress = {});
+
+/// No constraint at all.
+inline SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> triangles, std::nullptr_t,
+                                   const SmoothOptions& options, const std::function<void(double)>& progress = {}) {
+  return smooth_surface(x, triangles, static_cast<const ShellConstraint*>(nullptr), options, progress);
+}
+
+/// The same schedule with ellipsoid constraints (anisotropic kernels); `constraint` may be null.
+SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> triangles,
+                            const EllipsoidConstraint* constraint, const SmoothOptions& options,
                             const std::function<void(double)>& progress = {});
 
 }  // namespace meniscus

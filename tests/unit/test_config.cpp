@@ -236,6 +236,10 @@ TEST(Config, EveryKeyOfAStatsFileRoundTripsToIdenticalParams) {
   in.transfer_radius = 0.15;
   in.threads = 1;
   in.max_memory_gb = 3.5;
+  in.backend = Backend::cpu;
+  in.kernel_radius = 0.2;
+  in.smooth_particles = 0.25;
+  in.velocity_min_weight = 0.3;
   const Result result = reconstruct(particles, in);
   ASSERT_EQ(result.params, in);  // nothing left to derive
 

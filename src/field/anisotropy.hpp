@@ -1,0 +1,25 @@
+// meniscus — per-particle anisotropy (Yu & Turk 2010, "Reconstructing Surfaces of
+// Particle-Based Fluids Using Anisotropic Kernels", §4–5): weighted PCA of each particle's
+// neighbourhood gives an ellipsoid kernel; Laplacian smoothing of the positions gives the
+// kernel centres.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "field/kernel_impl.hpp"
+#include "grid/hash_grid.hpp"
+
+namespace meniscus {
+
+/// Laplacian smoothing of the points of `grid` (Yu & Turk §5): x̄_i = (1−λ)x_i + λ Σ_j w_ij x_j / Σ_j w_ij
+/// over the points within `radius` (the point itself included), w_ij = 1 − (r_ij/radius)³.
+/// Returns the smoothed points in the *original* order (grid.order() maps sorted → original).
+std::vector<Vec3f> smooth_positions(const HashGrid& grid, float radius, float lambda);
+
+/// Yu & Turk's ellipsoid of every point of `grid` from the weighted covariance of its neighbours
+/// within `radius` (their 2h), weights w = 1 − (r/radius)³, about the weighted mean. Returned in
+/// the *original* order. Parallel over points.
+std::vector<Ellipsoid> yu_turk_ellipsoids(const HashGrid& grid, float radius, const AnisotropyConstants& constants);
+
+}  // namespace meniscus

@@ -1,0 +1,108 @@
+// meniscus — the per-particle kernels of the field methods (DESIGN §1.2), shared by the CPU and
+// CUDA backends: Blinn 1982 (metaballs, with DESIGN's polynomial kernel), Müller, Charypar &
+// Gross 2003 (SPH, poly6), Zhu & Bridson 2005, Yu & Turk 2010 (anisotropic kernels).
+#pragma once
+
+#include <cmath>
+
+#include "field/eigen_sym3_impl.hpp"
+#include "meniscus/vec.hpp"
+
+namespace meniscus {
+
+/// Blinn's metaball kernel as DESIGN §1.2 writes it, W = (r/√2R)⁴ − (r/√2R)² + 0.25 for r < R:
+/// 0.25 at the centre, 0 (with zero slope) at r = R.
+MENISCUS_HD inline float metaball_kernel(float r2, float R) {
+  if (r2 >= R * R) return 0.0f;
+  const float s = r2 / (2.0f * R * R);
+  return (s - 0.5f) * (s - 0.5f);
+}
+/// Σ W over a cubic lattice of spacing d filling space, (1/d³)∫W dV = π R³/d³ · (1/3 − 2/5 + 1/7).
+inline double metaball_bulk_value(double R, double d) { return 3.14159265358979323846 * (R * R * R) / (d * d * d) * (8.0 / 105.0); }
+
+/// The unit-integral poly6 kernel of Müller et al. 2003 with support R: 315/(64π R³)·(1 − r²/R²)³.
+MENISCUS_HD inline float poly6_kernel(float r2, float R) {
+  if (r2 >= R * R) return 0.0f;
+  const float t = 1.0f - r2 / (R * R);
+  return 1.5666814f / (R * R * R) * t * t * t;  // 315 / (64π)
+}
+
+/// Zhu & Bridson's weight k(r/R) = (1 − (r/R)²)³ (also the attribute-transfer weight).
+MENISCUS_HD inline float zhu_bridson_weight(float r2, float R) {
+  if (r2 >= R * R) return 0.0f;
+  const float t = 1.0f - r2 / (R * R);
+  return t * t * t;
+}
+
+/// Yu & Turk's neighbourhood weight w = 1 − (r/R)³ for r < R.
+MENISCUS_HD inline float yu_turk_weight(float r, float R) {
+  if (r >= R) return 0.0f;
+  const float t = r / R;
+  return 1.0f - t * t * t;
+}
+
+/// Yu & Turk 2010 §4 constants. Their k_s = 1400 scales covariances in the units of their scenes;
+/// here the covariance is divided by `bulk_variance` (the per-axis weighted variance of a
+/// uniformly filled neighbourhood, 0.15 (2h)² for the weight above) so a particle inside a
+/// uniform fluid gets the unit (isotropic) kernel whatever the units. `k_max` bounds the longest
+/// axis (not in the paper) so the kernel support — and the constraint search — stays bounded.
+struct AnisotropyConstants {
+  float k_r = 4.0f;    ///< largest / smallest axis at most k_r
+  float k_n = 0.5f;    ///< axes of a particle with too few neighbours (isotropic, relative to bulk)
+  int n_eps = 25;      ///< fewer neighbours than this: isotropic k_n kernel
+  float k_max = 2.0f;  ///< longest axis at most k_max (relative to bulk)
+  float bulk_variance = 1.0f;
+};
+
+/// The per-axis weighted variance of a ball of radius Rn filled uniformly, weights 1 − (r/Rn)³:
+/// ∫w r² dV / (3∫w dV) = 0.15 Rn².
+inline float yu_turk_bulk_variance(float Rn) { return 0.15f * Rn * Rn; }
+
+/// A particle's ellipsoid: the dimensionless metric A = R diag(1/σ̃) Rᵀ (so |A(x − c)| is the
+/// distance "in the particle's ellipsoid metric": the identity in a uniform fluid), its
+/// determinant and the longest axis σ̃₁. Yu & Turk's kernel matrix is G = A / h.
+struct Ellipsoid {
+  SymMat3 metric;
+  float det = 1;       ///< det A = 1/(σ̃₁σ̃₂σ̃₃)
+  float max_axis = 1;  ///< σ̃₁
+};
+
+/// Yu & Turk's clamped ellipsoid from a weighted covariance `cov` of `neighbours` particles.
+MENISCUS_HD inline Ellipsoid yu_turk_ellipsoid(const float (&cov)[3][3], int neighbours, const AnisotropyConstants& k) {
+  Ellipsoid e;
+  if (neighbours < k.n_eps) {
+    const float a = 1.0f / k.k_n;
+    e.metric = SymMat3{a, 0, 0, a, 0, a};
+    e.det = a * a * a;
+    e.max_axis = k.k_n;
+    return e;
+  }
+  const Eigen3<float> eig = eigen_sym3(cov);
+  float s[3];
+  const float s1 = fminf(fmaxf(eig.values[0] / k.bulk_variance, 1e-6f), k.k_max);
+  s[0] = s1;
+  for (int i = 1; i < 3; ++i) s[i] = fminf(fmaxf(eig.values[i] / k.bulk_variance, s1 / k.k_r), s1);
+  SymMat3 m;
+  for (int i = 0; i < 3; ++i) {
+    const float inv = 1.0f / s[i];
+    const float* v = eig.vectors[i];
+    m.xx += inv * v[0] * v[0], m.xy += inv * v[0] * v[1], m.xz += inv * v[0] * v[2];
+    m.yy += inv * v[1] * v[1], m.yz += inv * v[1] * v[2], m.zz += inv * v[2] * v[2];
+  }
+  e.metric = m;
+  e.det = 1.0f / (s[0] * s[1] * s[2]);
+  e.max_axis = s1;
+  return e;
+}
+
+/// Yu & Turk's kernel W(r, G) = σ det(G) P(|G r|), G = A/h, P the poly6 profile with unit support:
+/// the poly6 kernel of support h, stretched into the ellipsoid (unit integral for any A).
+MENISCUS_HD inline float anisotropic_kernel(const Ellipsoid& e, Vec3f r, float h) {
+  const Vec3f g = e.metric * r;
+  const float s2 = length2(g) / (h * h);
+  if (s2 >= 1.0f) return 0.0f;
+  const float t = 1.0f - s2;
+  return 1.5666814f * e.det / (h * h * h) * t * t * t;
+}
+
+}  // namespace meniscus

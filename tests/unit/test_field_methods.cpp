@@ -1,0 +1,270 @@
+// Tests of the field-method building blocks: the 3×3 symmetric eigen-solver, the kernels, Yu &
+// Turk's ellipsoids, the kernel fields' level-0 form, the ellipsoid constraint projection and the
+// point-to-surface distance of the flicker metric.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "extract/extract.hpp"
+#include "field/anisotropy.hpp"
+#include "field/distance_field.hpp"
+#include "field/eigen_sym3_impl.hpp"
+#include "field/kernel_field.hpp"
+#include "meniscus/quality.hpp"
+#include "mesh/closest_point_impl.hpp"
+#include "smooth/constraint_impl.hpp"
+#include "smooth/constraints.hpp"
+#include "smooth/smooth.hpp"
+#include "support/test_support.hpp"
+
+namespace meniscus {
+namespace {
+
+/// Q diag(l) Qᵀ for the rotation Q of angle `angle` about the unit axis `axis`.
+void make_matrix(const double (&l)[3], Vec3f axis, double angle, double (&a)[3][3], double (&q)[3][3]) {
+  // Normalized in double: a float unit vector is off by ~1e-8, which would perturb the spectrum.
+  const double n = std::sqrt(double(axis.x) * axis.x + double(axis.y) * axis.y + double(axis.z) * axis.z);
+  const double c = std::cos(angle), s = std::sin(angle), x = axis.x / n, y = axis.y / n, z = axis.z / n;
+  const double r[3][3] = {{c + x * x * (1 - c), x * y * (1 - c) - z * s, x * z * (1 - c) + y * s},
+                          {y * x * (1 - c) + z * s, c + y * y * (1 - c), y * z * (1 - c) - x * s},
+                          {z * x * (1 - c) - y * s, z * y * (1 - c) + x * s, c + z * z * (1 - c)}};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      q[i][j] = r[i][j];
+      a[i][j] = 0;
+      for (int k = 0; k < 3; ++k) a[i][j] += r[i][k] * l[k] * r[j][k];
+    }
+}
+
+TEST(EigenSym3, RecoversKnownSpectraAndVectors) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const double spectra[][3] = {{3, 2, 1}, {1, 1, 1}, {5, 5, 1e-4}, {1, 1e-6, 1e-7}, {-2, 0.5, 7}, {1e3, 1, 1e-3}};
+  for (const auto& l : spectra)
+    for (int trial = 0; trial < 20; ++trial) {
+      const Vec3f axis = normalized(Vec3f{float(u(rng)), float(u(rng)), float(u(rng))});
+      double a[3][3], q[3][3];
+      make_matrix(l, axis, 3.0 * u(rng), a, q);
+      const Eigen3<double> e = eigen_sym3(a);
+      double sorted[3] = {l[0], l[1], l[2]};
+      std::sort(sorted, sorted + 3, [](double x, double y) { return x > y; });
+      const double scale = std::max({std::abs(l[0]), std::abs(l[1]), std::abs(l[2])});
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_NEAR(e.values[k], sorted[k], 1e-12 * scale) << k;
+        // A v = λ v and |v| = 1.
+        double res = 0, norm = 0;
+        for (int i = 0; i < 3; ++i) {
+          double av = 0;
+          for (int j = 0; j < 3; ++j) av += a[i][j] * e.vectors[k][j];
+          res = std::max(res, std::abs(av - e.values[k] * e.vectors[k][i]));
+          norm += e.vectors[k][i] * e.vectors[k][i];
+        }
+        EXPECT_LT(res, 1e-12 * scale);
+        EXPECT_NEAR(norm, 1.0, 1e-12);
+      }
+      // Orthogonal eigenvectors.
+      for (int k = 0; k < 3; ++k)
+        for (int m = k + 1; m < 3; ++m) {
+          double d = 0;
+          for (int i = 0; i < 3; ++i) d += e.vectors[k][i] * e.vectors[m][i];
+          if (sorted[k] != sorted[m]) {
+            EXPECT_LT(std::abs(d), 1e-12);
+          }
+        }
+    }
+}
+
+TEST(EigenSym3, FloatIsAccurateToRoundingAndHandlesDiagonalInput) {
+  const float diag[3][3] = {{2, 0, 0}, {0, 5, 0}, {0, 0, 1}};
+  const Eigen3<float> d = eigen_sym3(diag);
+  EXPECT_EQ(d.values[0], 5.0f);
+  EXPECT_EQ(d.values[1], 2.0f);
+  EXPECT_EQ(d.values[2], 1.0f);
+  EXPECT_EQ(std::abs(d.vectors[0][1]), 1.0f);
+  // The covariance of points on a plane tilted about x: one eigenvalue ~0 with the plane normal.
+  double a[3][3], q[3][3];
+  make_matrix({0.04, 0.04, 1e-6}, Vec3f{1, 0, 0}, 0.3, a, q);
+  const float af[3][3] = {{float(a[0][0]), float(a[0][1]), float(a[0][2])},
+                          {float(a[1][0]), float(a[1][1]), float(a[1][2])},
+                          {float(a[2][0]), float(a[2][1]), float(a[2][2])}};
+  const Eigen3<float> e = eigen_sym3(af);
+  EXPECT_NEAR(e.values[0], 0.04f, 1e-7f);
+  EXPECT_NEAR(e.values[2], 1e-6f, 1e-7f);
+  // The normal is the third column of q.
+  const float dn = float(e.vectors[2][0] * q[0][2] + e.vectors[2][1] * q[1][2] + e.vectors[2][2] * q[2][2]);
+  EXPECT_GT(std::abs(dn), 1.0f - 1e-5f);
+}
+
+TEST(Kernels, MetaballPoly6AndBulkValues) {
+  const float R = 2.0f;
+  EXPECT_FLOAT_EQ(metaball_kernel(0, R), 0.25f);
+  EXPECT_FLOAT_EQ(metaball_kernel(R * R, R), 0.0f);
+  EXPECT_NEAR(metaball_kernel(R * R * 0.999f, R), 0.0f, 1e-6f);
+  // Σ over a dense lattice approximates the bulk value used for the default iso.
+  const float d = 0.1f;
+  double sum = 0, sph = 0;
+  for (int i = -25; i <= 25; ++i)
+    for (int j = -25; j <= 25; ++j)
+      for (int k = -25; k <= 25; ++k) {
+        const float r2 = d * d * float(i * i + j * j + k * k);
+        sum += metaball_kernel(r2, 2 * d * 10);  // R = 20 d: lattice sum ≈ integral
+        sph += double(d * d * d) * poly6_kernel(r2, 20 * d);
+      }
+  EXPECT_NEAR(sum / metaball_bulk_value(20 * d, d), 1.0, 2e-3);
+  EXPECT_NEAR(sph, 1.0, 2e-3);  // unit integral
+}
+
+TEST(Kernels, YuTurkEllipsoidIsIsotropicInBulkFlatOnASheetAndClamped) {
+  const float d = 0.1f, R = 2 * d, radius = 2 * R;
+  AnisotropyConstants k;
+  k.bulk_variance = yu_turk_bulk_variance(radius);
+  // A lattice block: the centre particle's ellipsoid is within 10 % of the unit sphere.
+  const ParticleSet block = test::lattice_block(13, 13, 13, d);
+  const HashGrid bg(block.positions, radius);
+  const auto eb = yu_turk_ellipsoids(bg, radius, k);
+  const Ellipsoid& c = eb[(6 * 13 + 6) * 13 + 6];
+  EXPECT_NEAR(c.max_axis, 1.0f, 0.1f);
+  EXPECT_NEAR(c.metric.xx, c.metric.zz, 1e-3f);
+  EXPECT_NEAR(std::cbrt(c.det), 1.0f, 0.1f);
+  // One layer: flat along z, the z axis clamped to σ̃₁ / k_r.
+  const ParticleSet sheet = test::lattice_block(15, 15, 1, d);
+  const HashGrid sg(sheet.positions, radius);
+  const Ellipsoid s = yu_turk_ellipsoids(sg, radius, k)[7 * 15 + 7];
+  const Vec3f axis_len{1.0f / (s.metric * Vec3f{1, 0, 0}).x, 1.0f / (s.metric * Vec3f{0, 1, 0}).y,
+                       1.0f / (s.metric * Vec3f{0, 0, 1}).z};
+  EXPECT_NEAR(axis_len.z * k.k_r, axis_len.x, 1e-4f);
+  EXPECT_NEAR(axis_len.x, axis_len.y, 1e-4f);
+  EXPECT_NEAR(axis_len.x, s.max_axis, 1e-4f);
+  // Too few neighbours: the isotropic k_n kernel.
+  const ParticleSet few = test::lattice_block(2, 2, 2, d);
+  const HashGrid fg(few.positions, radius);
+  const Ellipsoid f = yu_turk_ellipsoids(fg, radius, k)[0];
+  EXPECT_FLOAT_EQ(f.max_axis, k.k_n);
+  EXPECT_FLOAT_EQ(f.metric.xx, 1.0f / k.k_n);
+  // The anisotropic kernel integrates to 1 whatever the ellipsoid.
+  double integral = 0;
+  const float step = 0.01f;
+  for (float x = -0.3f; x <= 0.3f; x += step)
+    for (float y = -0.3f; y <= 0.3f; y += step)
+      for (float z = -0.3f; z <= 0.3f; z += step) integral += anisotropic_kernel(s, {x, y, z}, R) * step * step * step;
+  EXPECT_NEAR(integral, 1.0, 0.02);
+}
+
+TEST(KernelField, EveryMethodIsNegativeInsideAndPositiveOutside) {
+  const float d = 0.1f;
+  const ParticleSet ps = test::lattice_block(8, 8, 8, d);
+  const HashGrid grid(ps.positions, 2 * d);
+  SampleLattice lattice;
+  lattice.cell_size = d / 2;
+  AnisotropyConstants k;
+  k.bulk_variance = yu_turk_bulk_variance(4 * d);
+  const HashGrid pca(ps.positions, 4 * d);
+  const std::vector<Ellipsoid> original = yu_turk_ellipsoids(pca, 4 * d, k);
+  std::vector<Ellipsoid> sorted(original.size());
+  for (std::size_t i = 0; i < sorted.size(); ++i) sorted[i] = original[grid.order()[i]];
+  for (FieldMethod m : {FieldMethod::metaball, FieldMethod::sph, FieldMethod::zhu_bridson, FieldMethod::anisotropic}) {
+    KernelFieldInput in;
+    in.centres = &grid;
+    in.method = m;
+    in.kernel_radius = 2 * d;
+    in.iso = m == FieldMethod::metaball ? float(0.5 * metaball_bulk_value(2 * d, d)) : (m == FieldMethod::zhu_bridson ? d : 0.5f);
+    in.uniform_volume = d * d * d;
+    in.ellipsoids = sorted;
+    const float band = kernel_support(in) + d;
+    const SparseField f = kernel_field(in, lattice, band_blocks(grid, lattice, band));
+    EXPECT_GT(f.background(), 0) << to_string(m);
+    // Centre of the block (cell 7,7,7 = 0.35): inside; 2 d above the top layer: outside.
+    EXPECT_LT(f.value({7, 7, 7}, 0), 0.0f) << to_string(m);
+    EXPECT_GT(f.value({7, 7, 14 + 4}, 0), 0.0f) << to_string(m);
+    EXPECT_EQ(f.value({7, 7, 200}, 0), f.background()) << to_string(m);
+  }
+}
+
+TEST(EllipsoidConstraint, ProjectionOntoTheShellIsExactInTheMetric) {
+  const SymMat3 a{2.0f, 0.3f, 0.0f, 0.8f, -0.1f, 4.0f};
+  const Vec3f c{1, 2, 3};
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-1, 1);
+  for (int i = 0; i < 1000; ++i) {
+    const Vec3f x = c + Vec3f{u(rng), u(rng), u(rng)};
+    const Vec3f y = project_to_ellipsoid_shell(x, c, a, 0.2f, 0.5f);
+    const float m = metric_distance(a, y, c);
+    EXPECT_GE(m, 0.2f * (1 - 1e-6f));
+    EXPECT_LE(m, 0.5f * (1 + 1e-6f));
+    // Along the line from the centre.
+    EXPECT_LT(length(cross(normalized(y - c), normalized(x - c))), 1e-5f);
+  }
+  EXPECT_NEAR(metric_distance(a, project_to_ellipsoid_shell(c, c, a, 0.2f, 0.5f), c), 0.2f, 1e-6f);
+}
+
+TEST(EllipsoidConstraint, SmoothedJitteredBlockResidualIsBelow1e5Relative) {
+  const float d = 0.1f, R = 2 * d;
+  const ParticleSet ps = test::lattice_block(14, 12, 6, d, 0.2f, 9);
+  const HashGrid raw(ps.positions, 2 * R);
+  AnisotropyConstants k;
+  k.bulk_variance = yu_turk_bulk_variance(2 * R);
+  const std::vector<Ellipsoid> original = yu_turk_ellipsoids(raw, 2 * R, k);
+  const std::vector<Vec3f> centres = smooth_positions(raw, 2 * d, 0.9f);
+  const HashGrid grid(centres, 2 * d);
+  std::vector<Ellipsoid> sorted(original.size());
+  float max_axis = 0;
+  for (std::size_t i = 0; i < sorted.size(); ++i) {
+    sorted[i] = original[grid.order()[i]];
+    max_axis = std::max(max_axis, sorted[i].max_axis);
+  }
+  SampleLattice lattice;
+  lattice.kind = SampleLattice::Kind::a15;
+  lattice.cell_size = d;
+  KernelFieldInput in;
+  in.centres = &grid;
+  in.method = FieldMethod::anisotropic;
+  in.kernel_radius = R;
+  in.iso = 0.5f;
+  in.uniform_volume = d * d * d;
+  in.ellipsoids = sorted;
+  const SparseField f = kernel_field(in, lattice, band_blocks(grid, lattice, kernel_support(in) + d));
+  TriangleMesh mesh = extract_surface(f, 0.0f, Extractor::tiles).mesh;
+  const EllipsoidConstraint c{&grid, sorted, 0.5f * d, d, max_axis};
+  const double before = ellipsoid_constraint_residual(c, mesh.vertices);
+  SmoothOptions o;
+  o.steps_free = 0;
+  smooth_surface(mesh.vertices, mesh.triangles, &c, o);
+  const double after = ellipsoid_constraint_residual(c, mesh.vertices);
+  EXPECT_GT(before, 0.05 * d) << "the raw extraction should violate the shells somewhere";
+  EXPECT_LE(after, 1e-5 * d) << "residual " << after / d << " r_outer (before smoothing " << before / d << ")";
+  EXPECT_TRUE(analyze_topology(mesh).watertight());
+}
+
+TEST(SurfaceDistance, MatchesBruteForceOnASphereAndIsZeroOnItself) {
+  const float d = 0.1f;
+  const ParticleSet ps = test::shell_ball(0.6f, d);
+  const HashGrid grid(ps.positions, 2 * d);
+  SampleLattice lattice;
+  lattice.kind = SampleLattice::Kind::a15;
+  lattice.cell_size = d;
+  const SparseField f = distance_field(grid, lattice, 1.2f * d, band_blocks(grid, lattice, 1.2f * d));
+  const TriangleMesh mesh = extract_surface(f, d, Extractor::tiles).mesh;
+  const SurfaceDistanceReport self = distance_to_surface(mesh.vertices, mesh);
+  EXPECT_EQ(self.count, mesh.vertices.size());
+  EXPECT_EQ(self.max, 0.0);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-1.2f, 1.2f);
+  std::vector<Vec3f> pts(200);
+  for (Vec3f& p : pts) p = {u(rng), u(rng), u(rng)};
+  const SurfaceDistanceReport r = distance_to_surface(pts, mesh);
+  double mean = 0, worst = 0;
+  for (const Vec3f& p : pts) {
+    float best = INFINITY;
+    for (const Triangle& t : mesh.triangles)
+      best = std::min(best, length(closest_point_on_triangle(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]) - p));
+    mean += best;
+    worst = std::max(worst, double(best));
+  }
+  EXPECT_NEAR(r.mean, mean / 200, 1e-6);
+  EXPECT_NEAR(r.max, worst, 1e-6);
+  EXPECT_LE(r.p95, r.max);
+}
+
+}  // namespace
+}  // namespace meniscus

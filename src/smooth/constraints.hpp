@@ -33,7 +33,7 @@ Vec3f project_vertex(const ShellConstraint& c, Vec3f x);
 /// projected by two threads at once.
 class NeighbourCache {
  public:
-  static constexpr int kCapacity = 16;
+  static constexpr int kCapacity = 8;
   /// Lists, for every vertex, the particles nearest to its current position.
   void build(const ShellConstraint& c, std::span<const Vec3f> x);
   /// project_vertex(c, x) for vertex i, using (and if needed refreshing) its list.

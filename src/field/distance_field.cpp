@@ -63,6 +63,16 @@ SparseField distance_field(const HashGrid& grid, const SampleLattice& lattice, f
             const auto [pb, pe] = grid.cell_range({cx, cy, cz});
             for (uint32_t pi = pb; pi < pe; ++pi) {
               const Vec3f p = points[pi];
+              // Every sample of the block lies in [box_lo, box_hi]: a particle whose band sphere
+              // misses that box touches none of them (most of the particles of the hash cells
+              // around a block), so skip it before the per-offset ranges. The margin keeps the
+              // test conservative under rounding.
+              float gap2 = 0;
+              for (int ax = 0; ax < 3; ++ax) {
+                const float g = std::max({box_lo[ax] - p[ax], p[ax] - box_hi[ax], 0.0f});
+                gap2 += g * g;
+              }
+              if (gap2 > band2 * (1.0f + 1e-4f)) continue;
               for (int s = 0; s < spc; ++s) {
                 const Vec3f off = lattice.sample_offset(s);
                 // Cells whose sample s lies within the band of p, clipped to this block.
@@ -85,8 +95,8 @@ SparseField distance_field(const HashGrid& grid, const SampleLattice& lattice, f
                     // range is widened by a rounding allowance: a sample it adds reads ≥ band², which
                     // the final clamp discards, so the field is the same as over the whole box.
                     const float half = std::sqrt(std::max(band2 - dyz, 0.0f)) * (1.0f + 1e-5f) + 1e-6f * a;
-                    const int32_t x0 = std::max(int32_t(std::ceil((p.x - half) * inv_a - off.x)) - origin.x, lo[0]);
-                    const int32_t x1 = std::min(int32_t(std::floor((p.x + half) * inv_a - off.x)) - origin.x, hi[0]);
+                    const int32_t x0 = std::max(ceil_to_int((p.x - half) * inv_a - off.x) - origin.x, lo[0]);
+                    const int32_t x1 = std::min(floor_to_int((p.x + half) * inv_a - off.x) - origin.x, hi[0]);
                     for (int32_t x = x0; x <= x1; ++x) {
                       const float dx = sample_delta(origin.x + x, off.x, a, p.x);
                       float& slot = d2[std::size_t(((z * n + y) * n + x) * spc + s)];

@@ -19,11 +19,32 @@ MENISCUS_HD inline void band_block_range(int32_t cell, float cell_size, float ba
   *hi = int32_t(std::floor((float(cell + 1) * cell_size + band) / block_size));
 }
 
+/// floor(x) and ceil(x) as integers, for |x| < 2³¹ (lattice coordinates are checked far below).
+/// Without SSE4.1 the compiler emulates std::floor in about ten instructions; truncation and one
+/// correction give the same integer (the distance field's scatter takes six of each per particle
+/// and lattice offset).
+MENISCUS_HD inline int32_t floor_to_int(float x) {
+#ifdef __CUDA_ARCH__
+  return int32_t(floorf(x));
+#else
+  const int32_t i = int32_t(x);
+  return i - int32_t(float(i) > x);
+#endif
+}
+MENISCUS_HD inline int32_t ceil_to_int(float x) {
+#ifdef __CUDA_ARCH__
+  return int32_t(ceilf(x));
+#else
+  const int32_t i = int32_t(x);
+  return i + int32_t(float(i) < x);
+#endif
+}
+
 /// Cells [*lo, *hi] on one axis whose sample (offset `offset`, in cells) lies within `band` of
 /// the particle coordinate `p` (lattice spacing 1 / inv_a), unclipped.
 MENISCUS_HD inline void particle_cell_range(float p, float band, float inv_a, float offset, int32_t* lo, int32_t* hi) {
-  *lo = int32_t(std::ceil((p - band) * inv_a - offset));
-  *hi = int32_t(std::floor((p + band) * inv_a - offset));
+  *lo = ceil_to_int((p - band) * inv_a - offset);
+  *hi = floor_to_int((p + band) * inv_a - offset);
 }
 
 /// One coordinate of the difference between a sample and a particle.

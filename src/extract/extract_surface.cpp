@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <utility>
 
 #include "extract/extract.hpp"
 #include "extract/marching.hpp"
@@ -37,7 +38,7 @@ ExtractResult extract_surface(const SparseField& field, float iso, Extractor ext
       corners = march_tetrahedra(field, iso);
       break;
   }
-  return weld_edge_keys(corners, field, iso);
+  return weld_edge_keys(std::move(corners), field, iso);
 }
 
 }  // namespace meniscus

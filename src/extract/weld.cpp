@@ -168,12 +168,15 @@ void compute_vertices(const std::vector<uint64_t>& vertex_keys, const DenseEdgeK
 /// The usual case: a corner's dense key and its index fit one 64-bit word together. One radix sort
 /// on the key bits brings equal keys together with their corners' indices; each run becomes a
 /// vertex and its index is scattered back to the corners — no search at all.
-void weld_packed(std::span<const uint64_t> corner_keys, const DenseEdgeKeys& dense, int index_bits,
+///
+/// The corner keys are packed in place (the largest array of the extraction: 8 bytes a triangle
+/// corner; a second copy would raise the peak memory by a third).
+void weld_packed(std::vector<uint64_t>& corner_keys, const DenseEdgeKeys& dense, int index_bits,
                  const SparseField& field, float iso, TriangleMesh& mesh) {
   const std::size_t n = corner_keys.size();
-  std::vector<uint64_t> packed(n);
+  std::vector<uint64_t>& packed = corner_keys;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) packed[i] = (dense.dense(corner_keys[i]) << index_bits) | i;
+    for (std::size_t i = r.begin(); i != r.end(); ++i) packed[i] = (dense.dense(packed[i]) << index_bits) | i;
   });
   radix_sort(packed, index_bits, index_bits + dense.bits);
 
@@ -233,7 +236,7 @@ void weld_searched(std::span<const uint64_t> corner_keys, const DenseEdgeKeys& d
 
 }  // namespace
 
-ExtractResult weld_edge_keys(std::span<const uint64_t> corner_keys, const SparseField& field, float iso) {
+ExtractResult weld_edge_keys(std::vector<uint64_t> corner_keys, const SparseField& field, float iso) {
   ExtractResult result;
   const DenseEdgeKeys dense(corner_keys);
   const int index_bits = corner_keys.size() < 2 ? 1 : int(std::bit_width(corner_keys.size() - 1));

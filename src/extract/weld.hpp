@@ -16,7 +16,8 @@ namespace meniscus {
 /// parameter of {φ = iso} (edge_parameter with kEdgeClamp), values read from `field`. Triangles
 /// keep their order; one with a repeated vertex is dropped and counted (vertices that only such
 /// triangles used are removed). Parallel (oneTBB); the result does not depend on the thread count.
-/// Throws ResourceError when there would be 2^32 or more vertices.
-ExtractResult weld_edge_keys(std::span<const uint64_t> corner_keys, const SparseField& field, float iso);
+/// Throws ResourceError when there would be 2^32 or more vertices. The keys are taken by value:
+/// move them in and the weld sorts them in place (no second copy at the peak of the extraction).
+ExtractResult weld_edge_keys(std::vector<uint64_t> corner_keys, const SparseField& field, float iso);
 
 }  // namespace meniscus

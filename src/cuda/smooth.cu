@@ -382,6 +382,12 @@ void smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGr
     MENISCUS_CUDA_CHECK_LAUNCH();
     return tree.finish();
   };
+  auto energy_from_wx = [&] {  // scratch already holds W x (kept current by the Gauss–Seidel sweep)
+    leaf_energy_kernel<<<blocks_for(tree.count), 256>>>(scratch.data(), op.area.data(), tree.leaves.data(), tree.count,
+                                                        tree.sums.data());
+    MENISCUS_CUDA_CHECK_LAUNCH();
+    return tree.finish();
+  };
   build();
   DeviceColoring colors;
   if (gauss_seidel) colors = color_vertices(adj, nv, 2);
@@ -413,7 +419,7 @@ void smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGr
                                                o.r_outer);
       MENISCUS_CUDA_CHECK_LAUNCH();
     }
-    const double e = energy_of();
+    const double e = gauss_seidel ? energy_from_wx() : energy_of();
     const double tolerance = constrained ? 0.05 : 1e-4;
     if (e > energy * (1.0 + tolerance) && w > 1.0f / 64) {
       std::swap(mesh.vertices, backup);

@@ -89,16 +89,38 @@ void NeighbourCache::build(const ShellConstraint& c, std::span<const Vec3f> x) {
 }
 
 Vec3f NeighbourCache::project(const ShellConstraint& c, uint32_t i, Vec3f x) {
-  return project_with(c, x, [&](Vec3f y) {
-    float moved = length(y - entries_[i].anchor);
-    if (moved < margin_) {
-      const HashGrid::Nearest n = scan(c, i, y, moved);
-      if (n.index != kNotFound) return n;
+  // The nearest distance D is 1-Lipschitz: a vertex that moved m ≤ slack from where its last
+  // projection left it (with D − r_inner ≥ slack and r_outer − D ≥ slack there) is inside its shell
+  // without any query, and project_with would return it unchanged. The margins keep this exact
+  // under rounding (project_with accepts 4e-6 outside the shell).
+  Entry& e = entries_[i];
+  const float moved_since = length(x - e.last);
+  if (moved_since <= e.slack) {
+    e.slack -= moved_since;
+    e.last = x;
+    return x;
+  }
+  float last_dist2 = -1;
+  const Vec3f out = project_with(c, x, [&](Vec3f y) {
+    float moved = length(y - e.anchor);
+    HashGrid::Nearest n;
+    if (moved < margin_) n = scan(c, i, y, moved);
+    if (n.index == kNotFound) {
+      refresh(c, i, y);
+      n = scan(c, i, y, 0.0f);
+      if (n.index == kNotFound) n = nearest_particle(c, y);
     }
-    refresh(c, i, y);
-    const HashGrid::Nearest n = scan(c, i, y, 0.0f);
-    return n.index != kNotFound ? n : nearest_particle(c, y);
+    last_dist2 = n.dist2;
+    return n;
   });
+  e.last = out;
+  e.slack = 0;
+  if (out == x && last_dist2 >= 0) {  // accepted as it was: its distance is last_dist2
+    const float dist = std::sqrt(last_dist2);
+    const float slack = std::min(dist - c.r_inner, c.r_outer - dist) - 1e-5f * c.r_outer;
+    e.slack = std::max(slack, 0.0f);
+  }
+  return out;
 }
 
 MetricNearest nearest_in_metric(const EllipsoidConstraint& c, Vec3f x) {

@@ -52,6 +52,8 @@ class NeighbourCache {
     Vec3f anchor;
     float reach = 0;   ///< every particle within this distance of the anchor is listed
     uint32_t count = 0;
+    Vec3f last{NAN, NAN, NAN};  ///< where the last projection left the vertex
+    float slack = 0;            ///< its nearest distance stays in the shell within this move
   };
   void refresh(const ShellConstraint& c, uint32_t i, Vec3f y);
   HashGrid::Nearest scan(const ShellConstraint& c, uint32_t i, Vec3f y, float moved) const;

@@ -146,7 +146,9 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
           if (constrained) project(i);
         });
       }
-      const double e = energy_of(adj, op, x, scratch);
+      // Gauss-Seidel kept scratch = W x current through the sweep: the energy needs no second pass
+      // over the mesh (the CUDA backend does the same, so both sum the same values).
+      const double e = gauss_seidel ? bilaplacian_energy(op, scratch) : energy_of(adj, op, x, scratch);
       // A free sweep of a convergent solver never raises xᵀBx; a constrained one may a little
       // (the projection is not a descent step), but a large rise means the sweep diverges.
       const double tolerance = constrained ? 0.05 : 1e-4;

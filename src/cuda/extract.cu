@@ -103,15 +103,7 @@ __global__ void march_kernel(const uint64_t* march_keys, const uint64_t* field_k
     uint32_t count = 0;
     const uint64_t cell_key = edge_key(Vec3i{origin.x + x, origin.y + y, origin.z + z}, 0);
     if (kTiles) {
-      unsigned any = 0, all = 0xFF;
-      for (int dz = -1; dz <= 1; ++dz)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const unsigned v = m[dx + dy * sy + dz * sz];
-            any |= v;
-            all &= v;
-          }
-      if (!(any == 0 || all == 0xFF))
+      if (tile_cell_may_cross(m, sy, sz))
         count = march_tile_cell(m, d_tile_lookup, d_tables.tet_cases, d_tables.a15_edges, cell_key, out);
     } else if (extractor == Extractor::cubes) {
       count = march_cube_cell(m, sy, sz, d_tables, cell_key, out);

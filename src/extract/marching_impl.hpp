@@ -60,6 +60,21 @@ inline MarchingTables host_marching_tables() {
   return t;
 }
 
+/// Whether any of the 46 tetrahedra of the tile cell at `mask` can hold surface: they read only
+/// the 27 cells around it, so a cell whose 27 masks all agree (all samples inside or all outside,
+/// as almost everywhere in a band) is skipped.
+MENISCUS_HD inline bool tile_cell_may_cross(const uint8_t* mask, int stride_y, int stride_z) {
+  unsigned any = 0, all = 0xFF;
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const unsigned v = mask[dx + dy * stride_y + dz * stride_z];
+        any |= v;
+        all &= v;
+      }
+  return !(any == 0 || all == 0xFF);
+}
+
 MENISCUS_HD inline uint32_t march_tile_cell(const uint8_t* mask, const TileVertexLookup& lookup,
                                             const TetCaseTable& tet_cases, const TileEdgeTable<kA15TetCount>& edges,
                                             uint64_t cell_key, uint64_t* out) {

@@ -22,17 +22,7 @@ uint32_t march_tile_block(const PaddedMasks& masks, uint64_t* out) {
     for (int y = 0; y < n; ++y)
       for (int x = 0; x < n; ++x) {
         const uint8_t* m = masks.at(x, y, z);
-        // A cell's tetrahedra read only the 27 cells around it: skip the cell (46 tetrahedra)
-        // when all their samples agree, as they do almost everywhere in a band.
-        unsigned any = 0, all = 0xFF;
-        for (int dz = -1; dz <= 1; ++dz)
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dx = -1; dx <= 1; ++dx) {
-              const unsigned v = m[dx + dy * sy + dz * sz];
-              any |= v;
-              all &= v;
-            }
-        if (any == 0 || all == 0xFF) continue;
+        if (!tile_cell_may_cross(m, sy, sz)) continue;
         const uint64_t cell_key = edge_key(masks.origin + Vec3i{x, y, z}, 0);
         count += march_tile_cell(m, kLookup, cell_key, out != nullptr ? out + 3 * std::size_t(count) : nullptr);
       }

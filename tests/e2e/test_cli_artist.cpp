@@ -12,24 +12,9 @@
 
 #include "meniscus/io.hpp"
 #include "meniscus/render.hpp"
+#include "support/png_decode.hpp"
 #include "support/test_support.hpp"
 
-// Third-party PNG decoder (as in test_render.cpp); our warnings are off for it.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wconversion"
-#pragma GCC diagnostic ignored "-Wsign-conversion"
-#pragma GCC diagnostic ignored "-Wshadow"
-#pragma GCC diagnostic ignored "-Wunused-function"
-#pragma GCC diagnostic ignored "-Wunused-parameter"
-#pragma GCC diagnostic ignored "-Wimplicit-fallthrough"
-#pragma GCC diagnostic ignored "-Wpedantic"
-#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
-#define STB_IMAGE_STATIC
-#define STBI_ONLY_PNG
-#define STBI_NO_STDIO
-#define STB_IMAGE_IMPLEMENTATION
-#include <stb/stb_image.h>
-#pragma GCC diagnostic pop
 
 namespace meniscus {
 namespace {
@@ -40,20 +25,7 @@ using test::TempDir;
 
 std::string frame9() { return test::data_file("ply/dam_break_frame_9_6859_particles.ply"); }
 
-Image read_png(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  int w = 0, h = 0, channels = 0;
-  std::unique_ptr<unsigned char, void (*)(void*)> data(
-      stbi_load_from_memory(reinterpret_cast<const unsigned char*>(bytes.data()), int(bytes.size()), &w, &h, &channels, 3),
-      stbi_image_free);
-  Image image;
-  if (!data) return image;
-  image.width = w;
-  image.height = h;
-  image.rgb.assign(data.get(), data.get() + std::size_t(w) * std::size_t(h) * 3);
-  return image;
-}
+using test::read_png;
 
 std::array<int, 3> pixel(const Image& image, int x, int y) {
   const std::size_t i = (std::size_t(y) * std::size_t(image.width) + std::size_t(x)) * 3;

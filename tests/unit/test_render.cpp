@@ -18,24 +18,9 @@
 
 #include "meniscus/errors.hpp"
 #include "meniscus/render.hpp"
+#include "support/png_decode.hpp"
 #include "support/test_support.hpp"
 
-// Third-party PNG decoder, used to check what write_png wrote; our warnings are off for it.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wconversion"
-#pragma GCC diagnostic ignored "-Wsign-conversion"
-#pragma GCC diagnostic ignored "-Wshadow"
-#pragma GCC diagnostic ignored "-Wunused-function"
-#pragma GCC diagnostic ignored "-Wunused-parameter"
-#pragma GCC diagnostic ignored "-Wimplicit-fallthrough"
-#pragma GCC diagnostic ignored "-Wpedantic"
-#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
-#define STB_IMAGE_STATIC
-#define STBI_ONLY_PNG
-#define STBI_NO_STDIO
-#define STB_IMAGE_IMPLEMENTATION
-#include <stb/stb_image.h>
-#pragma GCC diagnostic pop
 
 namespace meniscus {
 namespace {
@@ -387,14 +372,11 @@ TEST(RenderPngTest, WritesPngWithHeaderAndPixels) {
   EXPECT_EQ(bytes[25], 2);  // colour type: RGB
 
   // Decodes to exactly the pixels written.
-  int width = 0, height = 0, channels = 0;
-  unsigned char* decoded = stbi_load_from_memory(bytes.data(), int(bytes.size()), &width, &height, &channels, 3);
-  ASSERT_NE(decoded, nullptr);
-  const std::vector<uint8_t> pixels(decoded, decoded + std::size_t(width) * std::size_t(height) * 3);
-  stbi_image_free(decoded);
-  EXPECT_EQ(width, 37);
-  EXPECT_EQ(height, 23);
-  EXPECT_EQ(pixels, image.rgb);
+  const Image decoded = test::decode_png(bytes);
+  ASSERT_GT(decoded.width, 0) << "not a decodable PNG";
+  EXPECT_EQ(decoded.width, 37);
+  EXPECT_EQ(decoded.height, 23);
+  EXPECT_EQ(decoded.rgb, image.rgb);
 
   // Nothing but the target is left in the directory (the temporary file was renamed).
   EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path), std::filesystem::directory_iterator()), 1);

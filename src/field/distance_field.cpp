@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
+#include <span>
 
 namespace meniscus {
 
@@ -38,77 +40,101 @@ std::vector<uint64_t> band_blocks(const HashGrid& grid, const SampleLattice& lat
   return keys;
 }
 
+namespace {
+
+/// The scatter of one block, rows of N samples (N = the block's cells per edge) kept as
+/// contiguous vectors: scratch layout [s][z][y][x], so the innermost update is one short vector
+/// min that the compiler vectorizes (a row of the A15 block is exactly four floats). A particle
+/// reaches the samples of its band box (the same test as the CUDA gather, so both backends get
+/// the same samples); the rows of the box whose (y, z) part already exceeds the band are skipped.
+template <int N>
+void scatter_block(const HashGrid& grid, const SampleLattice& lattice, float band, std::span<const Vec3f> points,
+                   Vec3i origin, float* d2) {
+  const int spc = lattice.samples_per_cell();
+  const float a = lattice.cell_size;
+  const float inv_a = 1.0f / a;
+  const float band2 = band * band;
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  const Vec3f box_lo = Vec3f{float(origin.x), float(origin.y), float(origin.z)} * a;
+  const Vec3f box_hi = box_lo + Vec3f{1, 1, 1} * (a * float(N));
+  const Vec3i clo = grid.cell_of(box_lo - Vec3f{band, band, band});
+  const Vec3i chi = grid.cell_of(box_hi + Vec3f{band, band, band});
+  for (int32_t cz = clo.z; cz <= chi.z; ++cz)
+    for (int32_t cy = clo.y; cy <= chi.y; ++cy)
+      for (int32_t cx = clo.x; cx <= chi.x; ++cx) {
+        const auto [pb, pe] = grid.cell_range({cx, cy, cz});
+        for (uint32_t pi = pb; pi < pe; ++pi) {
+          const Vec3f p = points[pi];
+          // Every sample of the block lies in [box_lo, box_hi]: a particle whose band sphere
+          // misses that box touches none of them (most of the particles of the hash cells
+          // around a block), so skip it before the per-offset ranges. The margin keeps the
+          // test conservative under rounding.
+          float gap2 = 0;
+          for (int ax = 0; ax < 3; ++ax) {
+            const float g = std::max({box_lo[ax] - p[ax], p[ax] - box_hi[ax], 0.0f});
+            gap2 += g * g;
+          }
+          if (gap2 > band2 * (1.0f + 1e-4f)) continue;
+          for (int s = 0; s < spc; ++s) {
+            const Vec3f off = lattice.sample_offset(s);
+            // Cells whose sample s lies within the band box of p, clipped to this block.
+            int32_t lo[3], hi[3];
+            bool empty = false;
+            for (int ax = 0; ax < 3; ++ax) {
+              particle_cell_range(p[ax], band, inv_a, off[ax], &lo[ax], &hi[ax]);
+              lo[ax] = std::max(lo[ax], origin[ax]) - origin[ax];
+              hi[ax] = std::min(hi[ax], origin[ax] + N - 1) - origin[ax];
+              empty |= lo[ax] > hi[ax];
+            }
+            if (empty) continue;
+            // dx² of the whole row, +inf outside the box (so the min leaves those samples).
+            float dx2[N];
+            for (int x = 0; x < N; ++x) {
+              const float dx = sample_delta(origin.x + x, off.x, a, p.x);
+              dx2[x] = (x >= lo[0] && x <= hi[0]) ? dx * dx : kInf;
+            }
+            float* plane = d2 + std::size_t(s) * N * N * N;
+            for (int32_t z = lo[2]; z <= hi[2]; ++z) {
+              const float dz = sample_delta(origin.z + z, off.z, a, p.z);
+              for (int32_t y = lo[1]; y <= hi[1]; ++y) {
+                const float dy = sample_delta(origin.y + y, off.y, a, p.y);
+                const float dyz = dy * dy + dz * dz;
+                if (dyz > band2 * (1.0f + 1e-5f)) continue;  // dx² + dyz > band² on the whole row
+                float* row = plane + (z * N + y) * N;
+                // sample_dist2's order: dx² added onto the (y, z) part.
+                for (int x = 0; x < N; ++x) row[x] = std::min(row[x], dx2[x] + dyz);
+              }
+            }
+          }
+        }
+      }
+}
+
+}  // namespace
+
 SparseField distance_field(const HashGrid& grid, const SampleLattice& lattice, float band,
                            std::vector<uint64_t> block_keys) {
   SparseField field(lattice, std::move(block_keys), band);
   const int n = lattice.block_cells();
   const int spc = lattice.samples_per_cell();
-  const float a = lattice.cell_size;
-  const float inv_a = 1.0f / a;
   const float band2 = band * band;
   const auto points = grid.sorted_points();
 
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, field.block_count(), 4), [&](const auto& r) {
-    std::array<float, kBlockSamples> d2;
+    alignas(64) std::array<float, kBlockSamples> d2;
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
       d2.fill(band2);
       const Vec3i origin = field.block_origin(b);
-      const Vec3f box_lo = Vec3f{float(origin.x), float(origin.y), float(origin.z)} * a;
-      const Vec3f box_hi = box_lo + Vec3f{1, 1, 1} * (a * float(n));
-      const Vec3i clo = grid.cell_of(box_lo - Vec3f{band, band, band});
-      const Vec3i chi = grid.cell_of(box_hi + Vec3f{band, band, band});
-      for (int32_t cz = clo.z; cz <= chi.z; ++cz)
-        for (int32_t cy = clo.y; cy <= chi.y; ++cy)
-          for (int32_t cx = clo.x; cx <= chi.x; ++cx) {
-            const auto [pb, pe] = grid.cell_range({cx, cy, cz});
-            for (uint32_t pi = pb; pi < pe; ++pi) {
-              const Vec3f p = points[pi];
-              // Every sample of the block lies in [box_lo, box_hi]: a particle whose band sphere
-              // misses that box touches none of them (most of the particles of the hash cells
-              // around a block), so skip it before the per-offset ranges. The margin keeps the
-              // test conservative under rounding.
-              float gap2 = 0;
-              for (int ax = 0; ax < 3; ++ax) {
-                const float g = std::max({box_lo[ax] - p[ax], p[ax] - box_hi[ax], 0.0f});
-                gap2 += g * g;
-              }
-              if (gap2 > band2 * (1.0f + 1e-4f)) continue;
-              for (int s = 0; s < spc; ++s) {
-                const Vec3f off = lattice.sample_offset(s);
-                // Cells whose sample s lies within the band of p, clipped to this block.
-                int32_t lo[3], hi[3];
-                bool empty = false;
-                for (int ax = 0; ax < 3; ++ax) {
-                  particle_cell_range(p[ax], band, inv_a, off[ax], &lo[ax], &hi[ax]);
-                  lo[ax] = std::max(lo[ax], origin[ax]) - origin[ax];
-                  hi[ax] = std::min(hi[ax], origin[ax] + n - 1) - origin[ax];
-                  empty |= lo[ax] > hi[ax];
-                }
-                if (empty) continue;
-                for (int32_t z = lo[2]; z <= hi[2]; ++z) {
-                  const float dz = sample_delta(origin.z + z, off.z, a, p.z);
-                  for (int32_t y = lo[1]; y <= hi[1]; ++y) {
-                    const float dy = sample_delta(origin.y + y, off.y, a, p.y);
-                    const float dyz = dy * dy + dz * dz;
-                    if (dyz > band2 * (1.0f + 1e-5f)) continue;
-                    // Only the row's samples inside the band sphere (half the box's volume). The
-                    // range is widened by a rounding allowance: a sample it adds reads ≥ band², which
-                    // the final clamp discards, so the field is the same as over the whole box.
-                    const float half = std::sqrt(std::max(band2 - dyz, 0.0f)) * (1.0f + 1e-5f) + 1e-6f * a;
-                    const int32_t x0 = std::max(ceil_to_int((p.x - half) * inv_a - off.x) - origin.x, lo[0]);
-                    const int32_t x1 = std::min(floor_to_int((p.x + half) * inv_a - off.x) - origin.x, hi[0]);
-                    for (int32_t x = x0; x <= x1; ++x) {
-                      const float dx = sample_delta(origin.x + x, off.x, a, p.x);
-                      float& slot = d2[std::size_t(((z * n + y) * n + x) * spc + s)];
-                      slot = std::min(slot, sample_dist2(dx, dy, dz));
-                    }
-                  }
-                }
-              }
-            }
-          }
+      if (n == 4)
+        scatter_block<4>(grid, lattice, band, points, origin, d2.data());
+      else
+        scatter_block<8>(grid, lattice, band, points, origin, d2.data());
+      // Transpose [s][z][y][x] into the field's cell-major layout, clamped to the band.
       auto values = field.block_values(b);
-      for (int i = 0; i < kBlockSamples; ++i) values[std::size_t(i)] = std::sqrt(std::min(d2[std::size_t(i)], band2));
+      const int cells = n * n * n;
+      for (int s = 0; s < spc; ++s)
+        for (int c = 0; c < cells; ++c)
+          values[std::size_t(c * spc + s)] = std::sqrt(std::min(d2[std::size_t(s * cells + c)], band2));
     }
   });
   return field;

@@ -132,6 +132,7 @@ int main(int argc, char** argv) {
   std::string scene_name = "block", file;
   std::size_t count = 100000, samples = 2000;
   int repeat = 1, filter_passes = 4;
+  std::string write_particles;
   bool json = false;
   app.add_option("--scene", scene_name, "synthetic scene: block | sphere | splash");
   app.add_option("--count", count, "particles of the synthetic scene");
@@ -140,6 +141,9 @@ int main(int argc, char** argv) {
   app.add_option("--filter-passes", filter_passes, "mean-curvature passes of the filtered OpenVDB run");
   app.add_option("--samples", samples, "particles tested for being outside each mesh");
   app.add_flag("--json", json, "print JSON instead of the table");
+  app.add_option("--write-particles", write_particles,
+                 "write the scene's particles (.ply point cloud) and exit: the same data for `meniscus surface`, "
+                 "perf or callgrind");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -155,6 +159,13 @@ int main(int argc, char** argv) {
     } else {
       scene = make_scene(scene_name, count);
       base.spacing = scene.spacing;
+    }
+    if (!write_particles.empty()) {
+      TriangleMesh points;  // a mesh without triangles: a .ply point cloud the readers take back
+      points.vertices = scene.particles.positions;
+      write_mesh(write_particles, points);
+      fmt::print("{}: {} particles, spacing {}\n", write_particles, scene.particles.size(), scene.spacing);
+      return 0;
     }
     const Params p = resolve_params(scene.particles, base);
 

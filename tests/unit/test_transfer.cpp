@@ -1,5 +1,6 @@
 // Tests of normals, erosion, attribute transfer and void removal against direct computations.
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <cmath>
 #include <random>
@@ -116,6 +117,37 @@ TEST(Voids, RemovesSmallInwardComponentsOnly) {
   EXPECT_TRUE(t.watertight());
   EXPECT_EQ(t.components, 3u);
   EXPECT_EQ(t.unreferenced_vertices, 0u);
+}
+
+
+// Many components spread over several of the volume sums' chunks and both threads, with the
+// parts interleaved: the count is known by construction, and one thread gives the same mesh.
+TEST(Voids, ManyComponentsAnyThreadCount) {
+  TriangleMesh m = octahedron(500.0f);
+  std::size_t expected_removed = 0, expected_triangles = m.triangles.size();
+  for (int i = 0; i < 9000; ++i) {
+    const Vec3f c{float(i % 30) * 3 - 45, float(i / 30 % 30) * 3 - 45, float(i / 900) * 3 - 15};
+    const int kind = (i * 7) % 3;  // 0: small void (removed), 1: big void, 2: small droplet
+    const TriangleMesh part = octahedron(kind == 1 ? 1.4f : 0.5f, c, kind != 2);
+    expected_removed += kind == 0;
+    if (kind != 0) expected_triangles += part.triangles.size();
+    const uint32_t base = uint32_t(m.vertices.size());
+    m.vertices.insert(m.vertices.end(), part.vertices.begin(), part.vertices.end());
+    for (Triangle t : part.triangles) m.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+  }
+  ASSERT_GT(m.triangles.size(), std::size_t(1) << 16);  // more than one chunk
+  TriangleMesh serial = m;
+  std::size_t removed_serial = 0;
+  {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    removed_serial = remove_small_voids(serial, 1.0);
+  }
+  EXPECT_EQ(remove_small_voids(m, 1.0), expected_removed);
+  EXPECT_EQ(removed_serial, expected_removed);
+  EXPECT_EQ(m.triangles.size(), expected_triangles);
+  EXPECT_EQ(m.triangles, serial.triangles);
+  EXPECT_EQ(m.vertices, serial.vertices);
+  EXPECT_TRUE(analyze_topology(m).watertight());
 }
 
 }  // namespace

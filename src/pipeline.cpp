@@ -378,6 +378,14 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
   mesh = std::move(extracted.mesh);
   if (!p.keep_voids)
     stats.removed_voids = timer.run("voids", [&] { return remove_small_voids(mesh, 8 * d * d * d); });
+  // A kernel field can close a blob around the gap between particles, with no particle inside,
+  // or a blob smaller than the inner shell of its particle; the smoothing would crush either into
+  // zero-area triangles (remove_unsupported_blobs).
+  if (p.field != FieldMethod::distance)
+    stats.removed_blobs = timer.run("blobs", [&] {
+      const double inner_ball = 4.0 / 3.0 * 3.14159265358979323846 * p.r_inner * p.r_inner * p.r_inner;
+      return remove_unsupported_blobs(mesh, grid, 8 * d * d * d, inner_ball);
+    });
   // The extraction numbers vertices in edge-key (row-major) order; the sweeps run 2-4x faster
   // on a Z-ordered mesh, where a vertex's ring and particle list sit near it in memory.
   if (p.steps_a + p.steps_b + p.steps_free > 0) timer.run("reorder", [&] { reorder_vertices_spatially(mesh); });
@@ -438,6 +446,7 @@ std::string stats_to_json(const Result& result) {
   j["field_blocks"] = s.field_blocks;
   j["dropped_triangles"] = s.dropped_triangles;
   j["removed_voids"] = s.removed_voids;
+  j["removed_blobs"] = s.removed_blobs;
   j["flipped_triangles"] = s.flipped_triangles;
   j["threads"] = s.threads;
   j["backend"] = s.backend;

@@ -25,6 +25,7 @@ struct Stats {
   std::size_t field_blocks = 0;        ///< allocated 512-sample blocks of the sparse field
   std::size_t dropped_triangles = 0;   ///< zero-area triangles removed by the weld
   std::size_t removed_voids = 0;       ///< small interior voids removed after extraction
+  std::size_t removed_blobs = 0;       ///< kernel fields: blobs enclosing no particle or smaller than an inner shell
   std::size_t flipped_triangles = 0;   ///< triangles whose normal reversed during erosion
   std::size_t peak_memory_bytes = 0;   ///< peak resident set size of the process
   int threads = 0;

@@ -1,6 +1,8 @@
 // meniscus — small interior void removal.
 #include "mesh/voids.hpp"
 
+#include "meniscus/quality.hpp"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -50,9 +52,15 @@ class ConcurrentForest {
   std::unique_ptr<std::atomic<uint32_t>[]> parent_;
 };
 
-}  // namespace
+/// Connected components by shared vertices: each vertex's root (the component's smallest
+/// vertex), and per root the signed enclosed volume and whether any triangle belongs to it.
+struct MeshComponents {
+  std::vector<uint32_t> root;
+  std::vector<double> volume;
+  std::vector<uint8_t> has_triangles;
+};
 
-std::size_t remove_small_voids(TriangleMesh& mesh, double max_volume) {
+MeshComponents mesh_components(const TriangleMesh& mesh) {
   const std::size_t nv = mesh.vertices.size();
   const std::size_t nt = mesh.triangles.size();
   // Components over vertices: triangles of a watertight mesh that share a vertex share an
@@ -65,9 +73,10 @@ std::size_t remove_small_voids(TriangleMesh& mesh, double max_volume) {
       forest.unite(t[1], t[2]);
     }
   });
-  std::vector<uint32_t> root(nv);
+  MeshComponents c;
+  c.root.resize(nv);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv), [&](const auto& r) {
-    for (std::size_t v = r.begin(); v != r.end(); ++v) root[v] = forest.find(uint32_t(v));
+    for (std::size_t v = r.begin(); v != r.end(); ++v) c.root[v] = forest.find(uint32_t(v));
   });
 
   // Signed volume per component. Fixed chunks of triangles (in the extraction's spatial order, so
@@ -76,46 +85,41 @@ std::size_t remove_small_voids(TriangleMesh& mesh, double max_volume) {
   constexpr std::size_t kChunk = std::size_t(1) << 16;
   const std::size_t chunks = (nt + kChunk - 1) / kChunk;
   std::vector<std::vector<std::pair<uint32_t, double>>> runs(chunks);
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
-    auto& out = runs[c];
-    for (std::size_t i = c * kChunk, end = std::min(nt, i + kChunk); i < end; ++i) {
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t k) {
+    auto& out = runs[k];
+    for (std::size_t i = k * kChunk, end = std::min(nt, i + kChunk); i < end; ++i) {
       const Triangle& t = mesh.triangles[i];
       const Vec3f a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], cc = mesh.vertices[t[2]];
       const double v = (double(a.x) * (double(b.y) * cc.z - double(b.z) * cc.y) -
                         double(a.y) * (double(b.x) * cc.z - double(b.z) * cc.x) +
                         double(a.z) * (double(b.x) * cc.y - double(b.y) * cc.x)) / 6.0;
-      const uint32_t r = root[t[0]];
+      const uint32_t r = c.root[t[0]];
       if (out.empty() || out.back().first != r)
         out.emplace_back(r, v);
       else
         out.back().second += v;
     }
   });
-  std::vector<double> volume(nv, 0.0);
-  std::vector<uint8_t> has_triangles(nv, 0);
+  c.volume.assign(nv, 0.0);
+  c.has_triangles.assign(nv, 0);
   for (const auto& chunk : runs)
     for (const auto& [r, v] : chunk) {
-      volume[r] += v;
-      has_triangles[r] = 1;
+      c.volume[r] += v;
+      c.has_triangles[r] = 1;
     }
-  runs = {};
-  std::vector<uint8_t> drop(nv, 0);
-  std::size_t removed = 0;
-  for (uint32_t v = 0; v < nv; ++v)
-    if (root[v] == v && has_triangles[v] && volume[v] <= 0.0 && volume[v] > -max_volume) {
-      drop[v] = 1;
-      ++removed;
-    }
-  if (removed == 0) return 0;
+  return c;
+}
 
+/// Removes the triangles of the components whose root has drop[root] set, then the vertices no
+/// triangle uses (order otherwise preserved; normals and attributes follow if present).
+void drop_components(TriangleMesh& mesh, const std::vector<uint32_t>& root, const std::vector<uint8_t>& drop) {
+  const std::size_t nv = mesh.vertices.size();
   std::vector<Triangle> kept;
   kept.reserve(mesh.triangles.size());
   for (const Triangle& t : mesh.triangles)
     if (!drop[root[t[0]]]) kept.push_back(t);
   mesh.triangles = std::move(kept);
 
-  // Compact the vertices (the attributes and normals are not filled yet at this stage, but
-  // keep them consistent if they are).
   std::vector<uint32_t> remap(nv, ~0u);
   for (const Triangle& t : mesh.triangles)
     for (uint32_t v : t) remap[v] = 0;
@@ -134,6 +138,98 @@ std::size_t remove_small_voids(TriangleMesh& mesh, double max_volume) {
   for (Attribute& a : mesh.attributes) compact(a.values, std::size_t(a.components));
   for (Triangle& t : mesh.triangles)
     for (uint32_t& v : t) v = remap[v];
+}
+
+}  // namespace
+
+std::size_t remove_small_voids(TriangleMesh& mesh, double max_volume) {
+  const std::size_t nv = mesh.vertices.size();
+  const MeshComponents c = mesh_components(mesh);
+  std::vector<uint8_t> drop(nv, 0);
+  std::size_t removed = 0;
+  for (uint32_t v = 0; v < nv; ++v)
+    if (c.root[v] == v && c.has_triangles[v] && c.volume[v] <= 0.0 && c.volume[v] > -max_volume) {
+      drop[v] = 1;
+      ++removed;
+    }
+  if (removed > 0) drop_components(mesh, c.root, drop);
+  return removed;
+}
+
+std::size_t remove_unsupported_blobs(TriangleMesh& mesh, const HashGrid& particles, double max_volume,
+                                     double min_volume) {
+  const std::size_t nv = mesh.vertices.size();
+  const MeshComponents c = mesh_components(mesh);
+  // The small outward components, and their triangles bucketed by component.
+  std::vector<uint32_t> candidate_of(nv, kNotFound);
+  std::vector<uint32_t> roots;
+  for (uint32_t v = 0; v < nv; ++v)
+    if (c.root[v] == v && c.has_triangles[v] && c.volume[v] > 0.0 && c.volume[v] <= max_volume) {
+      candidate_of[v] = uint32_t(roots.size());
+      roots.push_back(v);
+    }
+  if (roots.empty()) return 0;
+  std::vector<uint32_t> start(roots.size() + 1, 0);
+  for (const Triangle& t : mesh.triangles)
+    if (const uint32_t k = candidate_of[c.root[t[0]]]; k != kNotFound) ++start[k + 1];
+  for (std::size_t k = 0; k < roots.size(); ++k) start[k + 1] += start[k];
+  std::vector<uint32_t> triangles(start.back());
+  {
+    std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+    for (uint32_t f = 0; f < mesh.triangles.size(); ++f)
+      if (const uint32_t k = candidate_of[c.root[mesh.triangles[f][0]]]; k != kNotFound) triangles[fill[k]++] = f;
+  }
+
+  std::vector<uint8_t> empty(roots.size(), 0);
+  const auto points = particles.sorted_points();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, roots.size(), 16), [&](const auto& r) {
+    TriangleMesh part;
+    std::vector<Vec3f> inside_box;
+    for (std::size_t k = r.begin(); k != r.end(); ++k) {
+      if (c.volume[roots[k]] <= min_volume) {
+        empty[k] = 1;
+        continue;
+      }
+      // The component as a small mesh of its own (vertex indices renumbered).
+      part.vertices.clear();
+      part.triangles.clear();
+      std::vector<std::pair<uint32_t, uint32_t>> local;  // (global, local), a few dozen entries
+      auto local_index = [&](uint32_t g) {
+        for (const auto& [gv, lv] : local)
+          if (gv == g) return lv;
+        local.emplace_back(g, uint32_t(part.vertices.size()));
+        part.vertices.push_back(mesh.vertices[g]);
+        return local.back().second;
+      };
+      for (uint32_t j = start[k]; j < start[k + 1]; ++j) {
+        const Triangle& t = mesh.triangles[triangles[j]];
+        part.triangles.push_back({local_index(t[0]), local_index(t[1]), local_index(t[2])});
+      }
+      Vec3f lo = part.vertices[0], hi = lo;
+      for (const Vec3f& x : part.vertices) lo = min(lo, x), hi = max(hi, x);
+      inside_box.clear();
+      const Vec3i clo = particles.cell_of(lo), chi = particles.cell_of(hi);
+      for (int32_t z = clo.z; z <= chi.z; ++z)
+        for (int32_t y = clo.y; y <= chi.y; ++y)
+          for (int32_t x = clo.x; x <= chi.x; ++x) {
+            const auto [pb, pe] = particles.cell_range({x, y, z});
+            for (uint32_t i = pb; i < pe; ++i) {
+              const Vec3f p = points[i];
+              if (p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z)
+                inside_box.push_back(p);
+            }
+          }
+      empty[k] = inside_box.empty() || points_outside(part, inside_box) == inside_box.size();
+    }
+  });
+  std::vector<uint8_t> drop(nv, 0);
+  std::size_t removed = 0;
+  for (std::size_t k = 0; k < roots.size(); ++k)
+    if (empty[k]) {
+      drop[roots[k]] = 1;
+      ++removed;
+    }
+  if (removed > 0) drop_components(mesh, c.root, drop);
   return removed;
 }
 

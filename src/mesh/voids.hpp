@@ -5,6 +5,7 @@
 
 #include <cstddef>
 
+#include "grid/hash_grid.hpp"
 #include "meniscus/mesh.hpp"
 
 namespace meniscus {
@@ -13,5 +14,17 @@ namespace meniscus {
 /// (−max_volume, 0], then drops the vertices no triangle uses (order otherwise preserved).
 /// Returns the number of components removed.
 std::size_t remove_small_voids(TriangleMesh& mesh, double max_volume);
+
+/// Kernel fields only: removes the small outward components the constrained smoothing cannot
+/// hold. (1) Components with volume in (0, max_volume] that enclose none of the points of
+/// `particles` (ray parity): the blobs a kernel field grows in the gap between particles (Zhu &
+/// Bridson's averaged centre lies there), which the smoothing crushes onto the particles' shells.
+/// (2) Components with volume in (0, min_volume] (min_volume: a particle's inner ball): a blob
+/// smaller than the inner shell of the particle it holds slides off that shell under the shrink
+/// sweeps and collapses to a point. Either way the result would be zero-area triangles. The
+/// distance field makes neither (each of its components is a union of r_outer balls).
+/// Returns the number of components removed.
+std::size_t remove_unsupported_blobs(TriangleMesh& mesh, const HashGrid& particles, double max_volume,
+                                     double min_volume);
 
 }  // namespace meniscus

@@ -150,5 +150,36 @@ TEST(Voids, ManyComponentsAnyThreadCount) {
   EXPECT_TRUE(analyze_topology(m).watertight());
 }
 
+// Kernel-field blobs: the small outward components without a particle inside, or smaller than
+// the inner ball, go; everything else stays, whatever its size or orientation.
+TEST(Voids, UnsupportedBlobsAreRemovedAndSupportedComponentsKept) {
+  TriangleMesh m = octahedron(5.0f, {0, 0, 0});  // volume 167: above max_volume, kept untested
+  const std::vector<std::pair<TriangleMesh, bool>> parts = {
+      {octahedron(1.0f, {10, 0, 0}), false},        // volume 1.33, holds particle (10.2, 0, 0): kept
+      {octahedron(1.0f, {20, 0, 0}), true},         // volume 1.33, no particle inside: removed
+      {octahedron(0.3f, {30, 0, 0}), true},         // volume 0.036 < min_volume, holds one: removed
+      {octahedron(0.5f, {40, 0, 0}, true), false},  // a small void (inward): not this function's
+  };
+  std::size_t expected_triangles = m.triangles.size();
+  for (const auto& [part, removed] : parts) {
+    const uint32_t base = uint32_t(m.vertices.size());
+    m.vertices.insert(m.vertices.end(), part.vertices.begin(), part.vertices.end());
+    for (Triangle t : part.triangles) m.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+    if (!removed) expected_triangles += part.triangles.size();
+  }
+  // Particles: inside the big one, inside the first and third blobs, and next to (outside) the
+  // second one, within its bounding box's corner.
+  const std::vector<Vec3f> particles = {{0, 0, 0}, {10.2f, 0, 0}, {30.05f, 0, 0}, {20.8f, 0.8f, 0.8f}};
+  const HashGrid grid(particles, 2.0f);
+  EXPECT_EQ(remove_unsupported_blobs(m, grid, /*max_volume=*/2.0, /*min_volume=*/0.1), 2u);
+  EXPECT_EQ(m.triangles.size(), expected_triangles);
+  EXPECT_EQ(m.vertices.size(), 18u);  // 5 octahedra of 6 vertices, 2 removed
+  const TopologyReport t = analyze_topology(m);
+  EXPECT_TRUE(t.watertight());
+  EXPECT_EQ(t.components, 3u);
+  EXPECT_EQ(t.unreferenced_vertices, 0u);
+  EXPECT_EQ(points_outside(m, std::span<const Vec3f>(particles.data(), 2)), 0u);
+}
+
 }  // namespace
 }  // namespace meniscus

@@ -57,57 +57,49 @@ void scatter_block(const HashGrid& grid, const SampleLattice& lattice, float ban
   constexpr float kInf = std::numeric_limits<float>::infinity();
   const Vec3f box_lo = Vec3f{float(origin.x), float(origin.y), float(origin.z)} * a;
   const Vec3f box_hi = box_lo + Vec3f{1, 1, 1} * (a * float(N));
-  const Vec3i clo = grid.cell_of(box_lo - Vec3f{band, band, band});
-  const Vec3i chi = grid.cell_of(box_hi + Vec3f{band, band, band});
-  for (int32_t cz = clo.z; cz <= chi.z; ++cz)
-    for (int32_t cy = clo.y; cy <= chi.y; ++cy)
-      for (int32_t cx = clo.x; cx <= chi.x; ++cx) {
-        const auto [pb, pe] = grid.cell_range({cx, cy, cz});
-        for (uint32_t pi = pb; pi < pe; ++pi) {
-          const Vec3f p = points[pi];
-          // Every sample of the block lies in [box_lo, box_hi]: a particle whose band sphere
-          // misses that box touches none of them (most of the particles of the hash cells
-          // around a block), so skip it before the per-offset ranges. The margin keeps the
-          // test conservative under rounding.
-          float gap2 = 0;
-          for (int ax = 0; ax < 3; ++ax) {
-            const float g = std::max({box_lo[ax] - p[ax], p[ax] - box_hi[ax], 0.0f});
-            gap2 += g * g;
-          }
-          if (gap2 > band2 * (1.0f + 1e-4f)) continue;
-          for (int s = 0; s < spc; ++s) {
-            const Vec3f off = lattice.sample_offset(s);
-            // Cells whose sample s lies within the band box of p, clipped to this block.
-            int32_t lo[3], hi[3];
-            bool empty = false;
-            for (int ax = 0; ax < 3; ++ax) {
-              particle_cell_range(p[ax], band, inv_a, off[ax], &lo[ax], &hi[ax]);
-              lo[ax] = std::max(lo[ax], origin[ax]) - origin[ax];
-              hi[ax] = std::min(hi[ax], origin[ax] + N - 1) - origin[ax];
-              empty |= lo[ax] > hi[ax];
-            }
-            if (empty) continue;
-            // dx² of the whole row, +inf outside the box (so the min leaves those samples).
-            float dx2[N];
-            for (int x = 0; x < N; ++x) {
-              const float dx = sample_delta(origin.x + x, off.x, a, p.x);
-              dx2[x] = (x >= lo[0] && x <= hi[0]) ? dx * dx : kInf;
-            }
-            float* plane = d2 + std::size_t(s) * N * N * N;
-            for (int32_t z = lo[2]; z <= hi[2]; ++z) {
-              const float dz = sample_delta(origin.z + z, off.z, a, p.z);
-              for (int32_t y = lo[1]; y <= hi[1]; ++y) {
-                const float dy = sample_delta(origin.y + y, off.y, a, p.y);
-                const float dyz = dy * dy + dz * dz;
-                if (dyz > band2 * (1.0f + 1e-5f)) continue;  // dx² + dyz > band² on the whole row
-                float* row = plane + (z * N + y) * N;
-                // sample_dist2's order: dx² added onto the (y, z) part.
-                for (int x = 0; x < N; ++x) row[x] = std::min(row[x], dx2[x] + dyz);
-              }
-            }
-          }
+  grid.for_each_in_cells_of_box(box_lo - Vec3f{band, band, band}, box_hi + Vec3f{band, band, band}, [&](uint32_t pi) {
+    const Vec3f p = points[pi];
+    // Every sample of the block lies in [box_lo, box_hi]: a particle whose band sphere misses
+    // that box touches none of them (most of the particles of the hash cells around a block), so
+    // skip it before the per-offset ranges. The margin keeps the test conservative under rounding.
+    float gap2 = 0;
+    for (int ax = 0; ax < 3; ++ax) {
+      const float g = std::max({box_lo[ax] - p[ax], p[ax] - box_hi[ax], 0.0f});
+      gap2 += g * g;
+    }
+    if (gap2 > band2 * (1.0f + 1e-4f)) return;
+    for (int s = 0; s < spc; ++s) {
+      const Vec3f off = lattice.sample_offset(s);
+      // Cells whose sample s lies within the band box of p, clipped to this block.
+      int32_t lo[3], hi[3];
+      bool empty = false;
+      for (int ax = 0; ax < 3; ++ax) {
+        particle_cell_range(p[ax], band, inv_a, off[ax], &lo[ax], &hi[ax]);
+        lo[ax] = std::max(lo[ax], origin[ax]) - origin[ax];
+        hi[ax] = std::min(hi[ax], origin[ax] + N - 1) - origin[ax];
+        empty |= lo[ax] > hi[ax];
+      }
+      if (empty) continue;
+      // dx² of the whole row, +inf outside the box (so the min leaves those samples).
+      float dx2[N];
+      for (int x = 0; x < N; ++x) {
+        const float dx = sample_delta(origin.x + x, off.x, a, p.x);
+        dx2[x] = (x >= lo[0] && x <= hi[0]) ? dx * dx : kInf;
+      }
+      float* plane = d2 + std::size_t(s) * N * N * N;
+      for (int32_t z = lo[2]; z <= hi[2]; ++z) {
+        const float dz = sample_delta(origin.z + z, off.z, a, p.z);
+        for (int32_t y = lo[1]; y <= hi[1]; ++y) {
+          const float dy = sample_delta(origin.y + y, off.y, a, p.y);
+          const float dyz = dy * dy + dz * dz;
+          if (dyz > band2 * (1.0f + 1e-5f)) continue;  // dx² + dyz > band² on the whole row
+          float* row = plane + (z * N + y) * N;
+          // sample_dist2's order: dx² added onto the (y, z) part.
+          for (int x = 0; x < N; ++x) row[x] = std::min(row[x], dx2[x] + dyz);
         }
       }
+    }
+  });
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <utility>
 
 namespace meniscus {
 
@@ -51,14 +52,8 @@ void for_particles_near_block(const HashGrid& grid, const SampleLattice& lattice
   const float a = lattice.cell_size;
   const Vec3f box_lo = Vec3f{float(origin.x), float(origin.y), float(origin.z)} * a;
   const Vec3f box_hi = box_lo + Vec3f{1, 1, 1} * (a * float(lattice.block_cells()));
-  const Vec3i clo = grid.cell_of(box_lo - Vec3f{support, support, support});
-  const Vec3i chi = grid.cell_of(box_hi + Vec3f{support, support, support});
-  for (int32_t cz = clo.z; cz <= chi.z; ++cz)
-    for (int32_t cy = clo.y; cy <= chi.y; ++cy)
-      for (int32_t cx = clo.x; cx <= chi.x; ++cx) {
-        const auto [pb, pe] = grid.cell_range({cx, cy, cz});
-        for (uint32_t pi = pb; pi < pe; ++pi) f(pi);
-      }
+  grid.for_each_in_cells_of_box(box_lo - Vec3f{support, support, support}, box_hi + Vec3f{support, support, support},
+                                std::forward<F>(f));
 }
 
 }  // namespace

@@ -50,6 +50,19 @@ class HashGrid {
     return {cell_starts_[i], cell_starts_[i + 1]};
   }
 
+  /// Calls f(sorted_index) for every point of the cells that touch the box [lo, hi] (a superset
+  /// of the points inside it, cell by cell in z, y, x order).
+  template <class F>
+  void for_each_in_cells_of_box(Vec3f lo, Vec3f hi, F&& f) const {
+    const Vec3i clo = cell_of(lo), chi = cell_of(hi);
+    for (int32_t cz = clo.z; cz <= chi.z; ++cz)
+      for (int32_t cy = clo.y; cy <= chi.y; ++cy)
+        for (int32_t cx = clo.x; cx <= chi.x; ++cx) {
+          const auto [pb, pe] = cell_range({cx, cy, cz});
+          for (uint32_t i = pb; i < pe; ++i) f(i);
+        }
+  }
+
   /// Calls f(sorted_index, dist2) for every point within distance r of p.
   template <class F>
   void for_each_within(Vec3f p, float r, F&& f) const {

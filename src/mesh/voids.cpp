@@ -208,17 +208,11 @@ std::size_t remove_unsupported_blobs(TriangleMesh& mesh, const HashGrid& particl
       Vec3f lo = part.vertices[0], hi = lo;
       for (const Vec3f& x : part.vertices) lo = min(lo, x), hi = max(hi, x);
       inside_box.clear();
-      const Vec3i clo = particles.cell_of(lo), chi = particles.cell_of(hi);
-      for (int32_t z = clo.z; z <= chi.z; ++z)
-        for (int32_t y = clo.y; y <= chi.y; ++y)
-          for (int32_t x = clo.x; x <= chi.x; ++x) {
-            const auto [pb, pe] = particles.cell_range({x, y, z});
-            for (uint32_t i = pb; i < pe; ++i) {
-              const Vec3f p = points[i];
-              if (p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z)
-                inside_box.push_back(p);
-            }
-          }
+      particles.for_each_in_cells_of_box(lo, hi, [&](uint32_t i) {
+        const Vec3f p = points[i];
+        if (p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z)
+          inside_box.push_back(p);
+      });
       empty[k] = inside_box.empty() || points_outside(part, inside_box) == inside_box.size();
     }
   });

@@ -204,7 +204,7 @@ void weld_packed(std::vector<uint64_t>& corner_keys, const DenseEdgeKeys& dense,
       mesh.triangles[corner / 3][corner % 3] = uint32_t(v - 1);
     }
   });
-  packed = {};
+  std::vector<uint64_t>().swap(packed);  // `= {}` would keep the capacity
   compute_vertices(vertex_keys, dense, field, iso, mesh);
 }
 
@@ -220,7 +220,7 @@ void weld_searched(std::span<const uint64_t> corner_keys, const DenseEdgeKeys& d
                     });
   radix_sort(sorted, 0, dense.bits);
   const std::vector<uint64_t> vertex_keys = unique_sorted(sorted);
-  sorted = {};
+  std::vector<uint64_t>().swap(sorted);
   check_vertex_count(vertex_keys.size());
   compute_vertices(vertex_keys, dense, field, iso, mesh);
 

@@ -101,8 +101,9 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
     if (o.rebuild_b == 0) {
       // The triangle lists only serve to build the operator: free them for the sweeps (28 bytes a
       // vertex, an eighth of the smoothing's memory).
-      adj.tri_offsets = {};
-      adj.tri_ids = {};
+      // (swap with empty vectors: `= {}` would keep the capacity).
+      std::vector<uint32_t>().swap(adj.tri_offsets);
+      std::vector<uint32_t>().swap(adj.tri_ids);
     }
     Coloring colors;
     if (gauss_seidel) {

@@ -65,6 +65,7 @@ struct Ellipsoid {
   SymMat3 metric;
   float det = 1;       ///< det A = 1/(σ̃₁σ̃₂σ̃₃)
   float max_axis = 1;  ///< σ̃₁
+  float min_axis = 1;  ///< σ̃₃ (1/min_axis = ‖A‖₂, the Lipschitz constant of the metric distance)
 };
 
 /// Yu & Turk's clamped ellipsoid from a weighted covariance `cov` of `neighbours` particles.
@@ -75,6 +76,7 @@ MENISCUS_HD inline Ellipsoid yu_turk_ellipsoid(const float (&cov)[3][3], int nei
     e.metric = SymMat3{a, 0, 0, a, 0, a};
     e.det = a * a * a;
     e.max_axis = k.k_n;
+    e.min_axis = k.k_n;
     return e;
   }
   const Eigen3<float> eig = eigen_sym3(cov);
@@ -92,6 +94,7 @@ MENISCUS_HD inline Ellipsoid yu_turk_ellipsoid(const float (&cov)[3][3], int nei
   e.metric = m;
   e.det = 1.0f / (s[0] * s[1] * s[2]);
   e.max_axis = s1;
+  e.min_axis = fminf(s[1], s[2]);
   return e;
 }
 

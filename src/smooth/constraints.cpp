@@ -144,20 +144,30 @@ MetricNearest nearest_in_metric(const EllipsoidConstraint& c, Vec3f x) {
   return best;
 }
 
-Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x) {
+namespace {
+
+/// project_vertex for ellipsoid constraints with the metric-nearest particle from `nearest(y)`
+/// (the exact search or a vertex's EllipsoidCache list); `last_distance` receives the metric
+/// distance of the last query (−1 when none answered).
+template <class NearestFn>
+Vec3f project_ellipsoid_with(const EllipsoidConstraint& c, Vec3f x, NearestFn&& nearest, float* last_distance) {
   const auto points = c.particles->sorted_points();
   const float lo = c.r_inner * (1.0f - 2e-6f), hi = c.r_outer * (1.0f + 2e-6f);
   const float target_in = c.r_inner * (1.0f + 1e-6f), target_out = c.r_outer * (1.0f - 1e-6f);
   uint32_t first = kNotFound;
+  *last_distance = -1;
   for (int round = 0; round < 4; ++round) {
-    const MetricNearest n = nearest_in_metric(c, x);
+    const MetricNearest n = nearest(x);
+    *last_distance = n.index == kNotFound ? -1.0f : n.distance;
     if (n.index == kNotFound) return x;
     if (n.distance >= lo && n.distance <= hi) return x;
     if (first == kNotFound) first = n.index;
     x = project_to_ellipsoid_shell(x, points[n.index], c.ellipsoids[n.index].metric, target_in, target_out);
   }
-  const MetricNearest n = nearest_in_metric(c, x);
+  const MetricNearest n = nearest(x);
+  *last_distance = n.distance;
   if (n.distance >= lo && n.distance <= hi) return x;
+  *last_distance = -1;  // whatever the ray search returns is not x at a known distance
   // Projections against different particles undo each other (a vertex squeezed between the
   // inner ellipsoid of one particle and the outer one of another): search rays from the first
   // particle, from its outer shell inwards, for a point outside every inner ellipsoid — on such a
@@ -195,6 +205,105 @@ Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x) {
         }
   if (best_dot > -2) return best_y;
   return x;  // best effort
+}
+
+}  // namespace
+
+Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x) {
+  float last = 0;
+  return project_ellipsoid_with(c, x, [&](Vec3f y) { return nearest_in_metric(c, y); }, &last);
+}
+
+void EllipsoidCache::refresh(const EllipsoidConstraint& c, uint32_t i, Vec3f y) {
+  // The kCapacity + 1 metric-nearest particles of metric distance ≤ r_outer + margin: every such
+  // particle lies within max_axis·(r_outer + margin) of y (as in nearest_in_metric).
+  struct Candidate {
+    float m;
+    uint32_t id;
+  };
+  std::array<Candidate, kCapacity + 1> best;
+  int n = 0;
+  const float radius = c.r_outer + margin_;
+  const auto points = c.particles->sorted_points();
+  c.particles->for_each_within(y, c.max_axis * radius * 1.0001f, [&](uint32_t id, float) {
+    const float m = metric_distance(c.ellipsoids[id].metric, y, points[id]);
+    if (m > radius || (n == kCapacity + 1 && m >= best[kCapacity].m)) return;
+    int k = n < kCapacity + 1 ? n++ : kCapacity;
+    while (k > 0 && (best[k - 1].m > m || (best[k - 1].m == m && best[k - 1].id > id))) {
+      best[k] = best[k - 1];
+      --k;
+    }
+    best[k] = {m, id};
+  });
+  Entry& e = entries_[i];
+  e.anchor = y;
+  e.count = uint32_t(std::min(n, kCapacity));
+  e.reach = (n > kCapacity ? best[kCapacity].m : radius) * (1.0f - 1e-5f);
+  uint32_t* slots = ids_.data() + std::size_t(i) * kCapacity;
+  for (uint32_t k = 0; k < e.count; ++k) slots[k] = best[k].id;
+}
+
+MetricNearest EllipsoidCache::scan(const EllipsoidConstraint& c, uint32_t i, Vec3f y, float moved) const {
+  const auto points = c.particles->sorted_points();
+  const Entry& e = entries_[i];
+  const uint32_t* slots = ids_.data() + std::size_t(i) * kCapacity;
+  MetricNearest best;
+  for (uint32_t k = 0; k < e.count; ++k) {
+    const uint32_t id = slots[k];
+    const float m = metric_distance(c.ellipsoids[id].metric, y, points[id]);
+    if (m < best.distance || (m == best.distance && id < best.index)) best = {id, m};
+  }
+  // An unlisted particle measured ≥ reach at the anchor, so ≥ reach − L·moved at y (the rounding
+  // allowance covers the float evaluation of both metric distances).
+  const float certain = e.reach - lipschitz_ * moved * (1.0f + 1e-5f) - 1e-6f * c.r_outer;
+  if (best.index != kNotFound && best.distance <= certain) return best;
+  return {};
+}
+
+MetricNearest EllipsoidCache::nearest(const EllipsoidConstraint& c, uint32_t i, Vec3f y) {
+  const float moved = length(y - entries_[i].anchor);
+  MetricNearest n;
+  if (lipschitz_ * moved < margin_) n = scan(c, i, y, moved);
+  if (n.index == kNotFound) {
+    refresh(c, i, y);
+    n = scan(c, i, y, 0.0f);
+    if (n.index == kNotFound) n = nearest_in_metric(c, y);
+  }
+  return n;
+}
+
+void EllipsoidCache::build(const EllipsoidConstraint& c, std::span<const Vec3f> x) {
+  lipschitz_ = 1;
+  for (const Ellipsoid& e : c.ellipsoids) lipschitz_ = std::max(lipschitz_, 1.0f / e.min_axis);
+  lipschitz_ *= 1.001f;  // the metric's eigenvectors are orthonormal only up to rounding
+  margin_ = 0.3f * c.r_outer;
+  entries_.assign(x.size(), Entry{});
+  ids_.resize(x.size() * kCapacity);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 1024), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) refresh(c, uint32_t(i), x[i]);
+  });
+}
+
+Vec3f EllipsoidCache::project(const EllipsoidConstraint& c, uint32_t i, Vec3f x) {
+  // The metric distance to the metric-nearest particle is L-Lipschitz: a vertex that moved m with
+  // L·m ≤ slack from where its last projection left it is still inside its shell (the slack keeps
+  // a margin over project_ellipsoid_with's acceptance tolerance).
+  Entry& e = entries_[i];
+  const float moved_since = lipschitz_ * length(x - e.last);
+  if (moved_since <= e.slack) {
+    e.slack -= moved_since;
+    e.last = x;
+    return x;
+  }
+  float last_distance = -1;
+  const Vec3f out = project_ellipsoid_with(c, x, [&](Vec3f y) { return nearest(c, i, y); }, &last_distance);
+  e.last = out;
+  e.slack = 0;
+  if (last_distance >= 0) {  // out measured last_distance from its metric-nearest particle
+    const float slack = std::min(last_distance - c.r_inner, c.r_outer - last_distance) - 1e-5f * c.r_outer;
+    e.slack = std::max(slack, 0.0f);
+  }
+  return out;
 }
 
 double ellipsoid_constraint_residual(const EllipsoidConstraint& c, std::span<const Vec3f> x) {

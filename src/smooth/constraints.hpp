@@ -89,6 +89,41 @@ MetricNearest nearest_in_metric(const EllipsoidConstraint& c, Vec3f x);
 /// two shells. Thread-safe.
 Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x);
 
+/// NeighbourCache's counterpart for ellipsoid constraints. Each vertex keeps the (at most
+/// kCapacity) particles nearest to its anchor *in their own metrics*, sorted, with the metric
+/// radius `reach` within which the list is complete. The metric distance of any particle is
+/// L-Lipschitz in the vertex position (L = max ‖A_P‖₂ = max 1/σ̃₃ over the particles), so at a
+/// point y with |y − anchor| = m the list's best b is certified when b ≤ reach − L·m; a vertex
+/// whose last projection left it with slack s inside its shell (in metric units) needs no query
+/// at all while L·(its move) ≤ s. Otherwise the list is rebuilt at y, and nearest_in_metric
+/// answers if even that cannot certify. Gives exactly project_vertex(c, x); each vertex touches
+/// only its own list (vertices may be projected in parallel, no vertex by two threads at once).
+class EllipsoidCache {
+ public:
+  static constexpr int kCapacity = 8;
+  void build(const EllipsoidConstraint& c, std::span<const Vec3f> x);
+  Vec3f project(const EllipsoidConstraint& c, uint32_t i, Vec3f x);
+  void prefetch(uint32_t i) const {
+    __builtin_prefetch(&entries_[i]);
+    __builtin_prefetch(ids_.data() + std::size_t(i) * kCapacity);
+  }
+
+ private:
+  struct Entry {
+    Vec3f anchor;
+    float reach = 0;  ///< every particle within this metric distance of the anchor is listed
+    uint32_t count = 0;
+    Vec3f last{NAN, NAN, NAN};  ///< where the last projection left the vertex
+    float slack = 0;            ///< metric slack of that position inside its shell
+  };
+  void refresh(const EllipsoidConstraint& c, uint32_t i, Vec3f y);
+  MetricNearest scan(const EllipsoidConstraint& c, uint32_t i, Vec3f y, float moved) const;
+  MetricNearest nearest(const EllipsoidConstraint& c, uint32_t i, Vec3f y);
+  float lipschitz_ = 1, margin_ = 0;
+  std::vector<Entry> entries_;
+  std::vector<uint32_t> ids_;
+};
+
 /// Max over the vertices of the metric distance outside [r_inner, r_outer] to the metric-nearest
 /// particle (the constraint residual of ellipsoid constraints).
 double ellipsoid_constraint_residual(const EllipsoidConstraint& c, std::span<const Vec3f> x);

@@ -188,9 +188,12 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
 SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> triangles,
                             const EllipsoidConstraint* constraint, const SmoothOptions& o,
                             const std::function<void(double)>& progress) {
+  if (x.empty() || o.steps_a + o.steps_b + o.steps_free == 0) return {};
+  EllipsoidCache cache;
+  if (constraint) cache.build(*constraint, x);
   return smooth_with(
-      x, triangles, constraint != nullptr, [&](uint32_t i) { x[i] = project_vertex(*constraint, x[i]); },
-      [](uint32_t) {}, o, progress);
+      x, triangles, constraint != nullptr, [&](uint32_t i) { x[i] = cache.project(*constraint, i, x[i]); },
+      [&](uint32_t i) { cache.prefetch(i); }, o, progress);
 }
 
 }  // namespace meniscus

@@ -75,5 +75,79 @@ TEST(Constraint, NeighbourCacheProjectsExactlyAsTheGrid) {
   EXPECT_EQ(mismatches, 0u);
 }
 
+// The same for ellipsoid constraints: random ellipsoids (axes 0.25-2, random orientation, so the
+// Lipschitz bound 1/σ̃₃ is 4), a dense cluster (lists truncated), small steps (slack and the
+// certification by reach − L·moved), large jumps (refresh) and far vertices (exact fallback); the
+// cache must answer exactly as project_vertex.
+TEST(Constraint, EllipsoidCacheProjectsExactlyAsTheSearch) {
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<Vec3f> particles;
+  for (int i = 0; i < 500; ++i) particles.push_back({u(rng), u(rng), u(rng)});
+  for (int i = 0; i < 200; ++i) particles.push_back(Vec3f{0.5f, 0.5f, 0.5f} + Vec3f{u(rng), u(rng), u(rng)} * 0.1f);
+  const float r_in = 0.05f, r_out = 0.1f;
+  const HashGrid grid(particles, 2 * r_out);
+  std::normal_distribution<float> g(0.0f, 1.0f);
+  std::uniform_real_distribution<float> axis(0.25f, 2.0f);
+  std::vector<Ellipsoid> ellipsoids(particles.size());
+  float max_axis = 0;
+  for (Ellipsoid& e : ellipsoids) {
+    // A random orthonormal frame (Gram-Schmidt of two Gaussian vectors) and random axes.
+    const Vec3f a = normalized(Vec3f{g(rng), g(rng), g(rng)});
+    const Vec3f b = normalized(cross(a, normalized(Vec3f{g(rng), g(rng), g(rng)})));
+    const Vec3f frame[3] = {a, b, cross(a, b)};
+    const float s[3] = {axis(rng), axis(rng), axis(rng)};
+    SymMat3 m;
+    for (int k = 0; k < 3; ++k) {
+      const float inv = 1.0f / s[k];
+      const Vec3f v = frame[k];
+      m.xx += inv * v.x * v.x, m.xy += inv * v.x * v.y, m.xz += inv * v.x * v.z;
+      m.yy += inv * v.y * v.y, m.yz += inv * v.y * v.z, m.zz += inv * v.z * v.z;
+    }
+    e.metric = m;
+    e.max_axis = std::max({s[0], s[1], s[2]});
+    e.min_axis = std::min({s[0], s[1], s[2]});
+    e.det = 1.0f / (s[0] * s[1] * s[2]);
+    max_axis = std::max(max_axis, e.max_axis);
+  }
+  const EllipsoidConstraint c{&grid, ellipsoids, r_in, r_out, max_axis};
+  std::uniform_real_distribution<float> w(-0.2f, 1.2f);
+  std::vector<Vec3f> x(1500);
+  for (auto& v : x) v = {w(rng), w(rng), w(rng)};
+  EllipsoidCache cache;
+  cache.build(c, x);
+  std::size_t compared = 0, mismatches = 0, unmoved = 0;
+  for (int sweep = 0; sweep < 24; ++sweep) {
+    const float size = sweep % 8 == 7 ? 0.3f : 0.002f * float(1 + sweep % 3);
+    for (uint32_t i = 0; i < x.size(); ++i) {
+      const Vec3f y = x[i] + Vec3f{g(rng), g(rng), g(rng)} * size;
+      const Vec3f expected = project_vertex(c, y);
+      x[i] = cache.project(c, i, y);
+      ++compared;
+      unmoved += expected == y;
+      if (!(x[i] == expected)) ++mismatches;
+    }
+  }
+  EXPECT_EQ(compared, 36000u);
+  EXPECT_GT(unmoved, compared / 4) << "the small steps should mostly stay inside the shells (the cache's fast paths)";
+  EXPECT_EQ(mismatches, 0u);
+
+  // Points walking through the dense cluster, independently of where the projection puts them:
+  // lists truncated to the kCapacity nearest, whose certification by reach − L·moved decides
+  // (thin inner shells, so that the points are mostly feasible and no ray search slows the test).
+  const EllipsoidConstraint thin{&grid, ellipsoids, 0.1f * r_in, r_out, max_axis};
+  std::vector<Vec3f> walk(600);
+  for (auto& v : walk) v = Vec3f{0.5f, 0.5f, 0.5f} + Vec3f{u(rng), u(rng), u(rng)} * 0.1f;
+  EllipsoidCache walker;
+  walker.build(thin, walk);
+  std::size_t walk_mismatches = 0;
+  for (int step = 0; step < 60; ++step)
+    for (uint32_t i = 0; i < walk.size(); ++i) {
+      walk[i] += Vec3f{g(rng), g(rng), g(rng)} * 0.003f;
+      walk_mismatches += !(walker.project(thin, i, walk[i]) == project_vertex(thin, walk[i]));
+    }
+  EXPECT_EQ(walk_mismatches, 0u);
+}
+
 }  // namespace
 }  // namespace meniscus

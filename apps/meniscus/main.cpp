@@ -92,7 +92,7 @@ void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
   cmd.add_option("--kernel-radius", p.kernel_radius, "support radius of the field kernels (default 2 d)")
       ->check(CLI::PositiveNumber);
   cmd.add_option("--smooth-particles", p.smooth_particles,
-                 "λ in [0, 1]: Laplacian smoothing of the particle positions before the field (default 0; 0.9 with "
+                 "λ in [0, 1]: Laplacian smoothing of the particle positions before the field (default 0; 0.3 with "
                  "--field anisotropic)");
   cmd.add_flag("--velocity-weighted", p.velocity_weighted,
                "smooth fast (splashing) fluid less than calm fluid; needs a velocity attribute (v, vel, velocity)");

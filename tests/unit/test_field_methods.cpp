@@ -225,7 +225,17 @@ TEST(EllipsoidConstraint, SmoothedJitteredBlockResidualIsBelow1e5Relative) {
   in.ellipsoids = sorted;
   const SparseField f = kernel_field(in, lattice, band_blocks(grid, lattice, kernel_support(in) + d));
   TriangleMesh mesh = extract_surface(f, 0.0f, Extractor::tiles).mesh;
-  const EllipsoidConstraint c{&grid, sorted, 0.5f * d, d, max_axis};
+  // The constraint shells the pipeline uses: the kernel ellipsoids scaled to unit volume.
+  std::vector<Ellipsoid> shells(sorted.size());
+  float shell_axis = 0;
+  for (std::size_t i = 0; i < sorted.size(); ++i) {
+    shells[i] = unit_volume_shell(sorted[i]);
+    const SymMat3& a = shells[i].metric;
+    const float det = a.xx * (a.yy * a.zz - a.yz * a.yz) - a.xy * (a.xy * a.zz - a.yz * a.xz) + a.xz * (a.xy * a.yz - a.yy * a.xz);
+    EXPECT_NEAR(det, 1.0f, 1e-4f);
+    shell_axis = std::max(shell_axis, shells[i].max_axis);
+  }
+  const EllipsoidConstraint c{&grid, shells, 0.5f * d, d, shell_axis};
   const double before = ellipsoid_constraint_residual(c, mesh.vertices);
   SmoothOptions o;
   o.steps_free = 0;

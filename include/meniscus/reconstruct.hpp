@@ -61,7 +61,7 @@ Params resolve_params(const ParticleSet& particles, const Params& params);
 /// distance alone underestimates the rest spacing of disordered SPH fluid by 20–30 %, which
 /// leaves holes in the surface. Exact duplicates are ignored. Estimated from a deterministic
 /// sample of at most `max_samples` particles.
-double estimate_spacing(const ParticleSet& particles, std::size_t max_samples = 200000);
+double estimate_spacing(const ParticleSet& particles, std::size_t max_samples = 50000);
 
 /// The stats and parameters as a JSON document (the format of `--stats FILE.json`).
 std::string stats_to_json(const Result& result);

@@ -138,7 +138,7 @@ bool gather_inside_masks(const SparseField& field, std::span<const uint8_t> cell
   return any_inside && any_outside;
 }
 
-std::vector<uint64_t> march_blocks(const SparseField& field, float iso, bool full_stencil, BlockKernel kernel) {
+MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stencil, BlockKernel kernel) {
   const std::vector<uint8_t> cell_masks = cell_inside_masks(field, iso);
   const std::vector<Vec3i> blocks = blocks_to_march(field, cell_masks, full_stencil);
 
@@ -152,7 +152,13 @@ std::vector<uint64_t> march_blocks(const SparseField& field, float iso, bool ful
   for (std::size_t b = 0; b < blocks.size(); ++b) offsets[b + 1] += offsets[b];
 
   // Pass 2: each block writes its triangles at its offset, so the order is the block order.
-  std::vector<uint64_t> corners(3 * offsets.back());
+  MarchedCorners out;
+  out.block_cells = field.lattice().block_cells();
+  out.origins.resize(blocks.size());
+  const int n = out.block_cells;
+  for (std::size_t b = 0; b < blocks.size(); ++b) out.origins[b] = {blocks[b].x * n, blocks[b].y * n, blocks[b].z * n};
+  std::vector<uint64_t>& corners = out.keys;
+  corners.resize(3 * offsets.back());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size()), [&](const tbb::blocked_range<std::size_t>& r) {
     PaddedMasks masks;
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
@@ -165,7 +171,8 @@ std::vector<uint64_t> march_blocks(const SparseField& field, float iso, bool ful
         throw std::logic_error("march_blocks: the write pass disagrees with the count pass");
     }
   });
-  return corners;
+  out.triangle_offsets = std::move(offsets);
+  return out;
 }
 
 }  // namespace meniscus

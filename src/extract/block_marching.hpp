@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "extract/edge_key.hpp"
+#include "extract/marching.hpp"
 #include "field/sparse_field.hpp"
 
 namespace meniscus {
@@ -53,9 +54,9 @@ bool gather_inside_masks(const SparseField& field, std::span<const uint8_t> cell
 using BlockKernel = uint32_t (*)(const PaddedMasks& masks, uint64_t* out);
 
 /// Runs `kernel` over blocks_to_march in two passes (count, exclusive prefix sum, write) and
-/// returns the corner keys of all triangles, 3 per triangle, in block order — the same for any
-/// number of threads.
-std::vector<uint64_t> march_blocks(const SparseField& field, float iso, bool full_stencil, BlockKernel kernel);
+/// returns the corner keys of all triangles, 3 per triangle, in block order, with the blocks'
+/// triangle offsets and cell origins — the same for any number of threads.
+MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stencil, BlockKernel kernel);
 
 /// The BlockKernel of a cubic-lattice extractor: runs `cell` (march_cube_cell, march_kuhn_cell)
 /// on every cell of the block, in x-fastest order, appending its triangles' corner keys.

@@ -26,7 +26,7 @@ ExtractResult extract_surface(const SparseField& field, float iso, Extractor ext
                                        : extractor == Extractor::cubes ? "cubes"
                                                                        : "tetrahedra",
                                        wants_a15 ? "A15" : "cubic", a15 ? "A15" : "cubic"));
-  std::vector<uint64_t> corners;
+  MarchedCorners corners;
   switch (extractor) {
     case Extractor::tiles:
       corners = march_tiles(field, iso);

@@ -13,11 +13,22 @@
 
 namespace meniscus {
 
+/// The marching stages' output: 3 edge keys per triangle, in block order, with the block structure
+/// the weld uses. Block b's triangles are [triangle_offsets[b], triangle_offsets[b + 1]); their
+/// edges have base cells within 2 cells of the block's cells [origins[b], origins[b] + block_cells)
+/// on each axis (a tetrahedron reaches one cell beyond its own, an edge key's base cell one more).
+struct MarchedCorners {
+  std::vector<uint64_t> keys;
+  std::vector<uint64_t> triangle_offsets;  ///< #blocks + 1
+  std::vector<Vec3i> origins;              ///< first cell of each marched block
+  int block_cells = 0;
+};
+
 /// Marching Tiles on an A15 field: the 46 acute tetrahedra of every cell.
-std::vector<uint64_t> march_tiles(const SparseField& field, float iso);
+MarchedCorners march_tiles(const SparseField& field, float iso);
 /// Marching Cubes on a cubic field: the cube of every cell (the cell is its lowest corner).
-std::vector<uint64_t> march_cubes(const SparseField& field, float iso);
+MarchedCorners march_cubes(const SparseField& field, float iso);
 /// Marching Tetrahedra on a cubic field: the 6 Kuhn tetrahedra of every cell's cube.
-std::vector<uint64_t> march_tetrahedra(const SparseField& field, float iso);
+MarchedCorners march_tetrahedra(const SparseField& field, float iso);
 
 }  // namespace meniscus

@@ -5,7 +5,7 @@
 
 namespace meniscus {
 
-std::vector<uint64_t> march_cubes(const SparseField& field, float iso) {
+MarchedCorners march_cubes(const SparseField& field, float iso) {
   return march_blocks(field, iso, /*full_stencil=*/false, march_cubic_block<march_cube_cell>);
 }
 

@@ -31,7 +31,7 @@ uint32_t march_tile_block(const PaddedMasks& masks, uint64_t* out) {
 
 }  // namespace
 
-std::vector<uint64_t> march_tiles(const SparseField& field, float iso) {
+MarchedCorners march_tiles(const SparseField& field, float iso) {
   return march_blocks(field, iso, /*full_stencil=*/true, march_tile_block);
 }
 

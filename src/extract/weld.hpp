@@ -7,6 +7,7 @@
 #include <span>
 
 #include "extract/extract.hpp"
+#include "extract/marching.hpp"
 #include "field/sparse_field.hpp"
 
 namespace meniscus {
@@ -19,5 +20,9 @@ namespace meniscus {
 /// Throws ResourceError when there would be 2^32 or more vertices. The keys are taken by value:
 /// move them in and the weld sorts them in place (no second copy at the peak of the extraction).
 ExtractResult weld_edge_keys(std::vector<uint64_t> corner_keys, const SparseField& field, float iso);
+
+/// The same mesh from the marching stages' output, using its block structure: each block merges
+/// its own corners first, so only the blocks' distinct edges are sorted globally.
+ExtractResult weld_edge_keys(MarchedCorners marched, const SparseField& field, float iso);
 
 }  // namespace meniscus

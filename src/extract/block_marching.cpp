@@ -138,41 +138,62 @@ bool gather_inside_masks(const SparseField& field, std::span<const uint8_t> cell
   return any_inside && any_outside;
 }
 
-MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stencil, BlockKernel kernel) {
+MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stencil, BlockKernel kernel,
+                            uint32_t max_triangles_per_cell) {
   const std::vector<uint8_t> cell_masks = cell_inside_masks(field, iso);
   const std::vector<Vec3i> blocks = blocks_to_march(field, cell_masks, full_stencil);
+  MarchedCorners out;
+  out.block_cells = field.lattice().block_cells();
+  const int n = out.block_cells;
+  out.origins.resize(blocks.size());
+  for (std::size_t b = 0; b < blocks.size(); ++b) out.origins[b] = {blocks[b].x * n, blocks[b].y * n, blocks[b].z * n};
 
-  // Pass 1: triangles per block.
+  // One pass: each thread marches its blocks into its own pages, each block contiguous within a
+  // page (a page is started when the worst case of a block no longer fits). The block order —
+  // the mesh's triangle order — comes from the offsets, not from where the keys landed, so the
+  // result does not depend on the threads.
+  const std::size_t block_max = 3 * std::size_t(max_triangles_per_cell) * std::size_t(n) * std::size_t(n) * std::size_t(n);
+  const std::size_t page_size = std::max<std::size_t>(std::size_t(1) << 20, 8 * block_max);
+  struct Writer {
+    std::vector<std::unique_ptr<uint64_t[]>> pages;
+    std::size_t used = 0;
+  };
+  tbb::enumerable_thread_specific<Writer> writers;
+  out.block_keys.assign(blocks.size(), nullptr);
   std::vector<uint64_t> offsets(blocks.size() + 1, 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size()), [&](const tbb::blocked_range<std::size_t>& r) {
     PaddedMasks masks;  // one per task, on the stack: no allocation in the loop
-    for (std::size_t b = r.begin(); b != r.end(); ++b)
-      offsets[b + 1] = gather_inside_masks(field, cell_masks, blocks[b], masks) ? kernel(masks, nullptr) : 0;
-  });
-  for (std::size_t b = 0; b < blocks.size(); ++b) offsets[b + 1] += offsets[b];
-
-  // Pass 2: each block writes its triangles at its offset, so the order is the block order.
-  MarchedCorners out;
-  out.block_cells = field.lattice().block_cells();
-  out.origins.resize(blocks.size());
-  const int n = out.block_cells;
-  for (std::size_t b = 0; b < blocks.size(); ++b) out.origins[b] = {blocks[b].x * n, blocks[b].y * n, blocks[b].z * n};
-  std::vector<uint64_t>& corners = out.keys;
-  corners.resize(3 * offsets.back());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size()), [&](const tbb::blocked_range<std::size_t>& r) {
-    PaddedMasks masks;
+    Writer& w = writers.local();
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
-      if (offsets[b + 1] == offsets[b]) continue;
-      gather_inside_masks(field, cell_masks, blocks[b], masks);
-      const uint32_t written = kernel(masks, corners.data() + 3 * offsets[b]);
-      // The passes read the same data with the same kernel; a mismatch means a kernel bug that
-      // would otherwise leave garbage keys in the mesh.
-      if (written != offsets[b + 1] - offsets[b])
-        throw std::logic_error("march_blocks: the write pass disagrees with the count pass");
+      if (!gather_inside_masks(field, cell_masks, blocks[b], masks)) continue;
+      if (w.pages.empty() || w.used + block_max > page_size) {
+        w.pages.push_back(std::make_unique_for_overwrite<uint64_t[]>(page_size));
+        w.used = 0;
+      }
+      uint64_t* keys = w.pages.back().get() + w.used;
+      const uint32_t triangles = kernel(masks, keys);
+      if (triangles > max_triangles_per_cell * uint32_t(n * n * n))
+        throw std::logic_error("march_blocks: a block wrote more triangles than its cells can have");
+      if (triangles == 0) continue;
+      out.block_keys[b] = keys;
+      offsets[b + 1] = triangles;
+      w.used += 3 * std::size_t(triangles);
     }
   });
+  for (std::size_t b = 0; b < blocks.size(); ++b) offsets[b + 1] += offsets[b];
   out.triangle_offsets = std::move(offsets);
+  for (Writer& w : writers)
+    for (auto& page : w.pages) out.pages.push_back(std::move(page));
   return out;
+}
+
+std::vector<uint64_t> MarchedCorners::flatten() const {
+  std::vector<uint64_t> keys(corner_count());
+  tbb::parallel_for(std::size_t(0), block_keys.size(), [&](std::size_t b) {
+    const std::span<uint64_t> source = block(b);
+    std::copy(source.begin(), source.end(), keys.begin() + std::ptrdiff_t(3 * triangle_offsets[b]));
+  });
+  return keys;
 }
 
 }  // namespace meniscus

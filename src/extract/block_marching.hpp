@@ -53,10 +53,12 @@ bool gather_inside_masks(const SparseField& field, std::span<const uint8_t> cell
 /// writes 3 edge keys per triangle there (cell order z, y, x, then the kernel's order).
 using BlockKernel = uint32_t (*)(const PaddedMasks& masks, uint64_t* out);
 
-/// Runs `kernel` over blocks_to_march in two passes (count, exclusive prefix sum, write) and
-/// returns the corner keys of all triangles, 3 per triangle, in block order, with the blocks'
-/// triangle offsets and cell origins — the same for any number of threads.
-MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stencil, BlockKernel kernel);
+/// Runs `kernel` over blocks_to_march in one pass (each thread into its own pages, see
+/// MarchedCorners) and returns the corner keys of all triangles, 3 per triangle, with the blocks'
+/// triangle offsets and cell origins — the same for any number of threads. A cell yields at most
+/// `max_triangles_per_cell` triangles.
+MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stencil, BlockKernel kernel,
+                            uint32_t max_triangles_per_cell);
 
 /// The BlockKernel of a cubic-lattice extractor: runs `cell` (march_cube_cell, march_kuhn_cell)
 /// on every cell of the block, in x-fastest order, appending its triangles' corner keys.

@@ -7,21 +7,34 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
+#include <span>
 #include <vector>
 
 #include "field/sparse_field.hpp"
 
 namespace meniscus {
 
-/// The marching stages' output: 3 edge keys per triangle, in block order, with the block structure
-/// the weld uses. Block b's triangles are [triangle_offsets[b], triangle_offsets[b + 1]); their
-/// edges have base cells within 2 cells of the block's cells [origins[b], origins[b] + block_cells)
-/// on each axis (a tetrahedron reaches one cell beyond its own, an edge key's base cell one more).
+/// The marching stages' output: 3 edge keys per triangle, block by block, with the block
+/// structure the weld uses. Block b has triangle_offsets[b + 1] − triangle_offsets[b] triangles
+/// (block order is the triangle order of the mesh); its 3 keys per triangle start at
+/// block_keys[b], in pages each thread filled as it marched (one pass, no count pass, no copy).
+/// Its edges have base cells within 2 cells of the block's cells [origins[b], origins[b] +
+/// block_cells) on each axis (a tetrahedron reaches one cell beyond its own, an edge key's base
+/// cell one more).
 struct MarchedCorners {
-  std::vector<uint64_t> keys;
+  std::vector<std::unique_ptr<uint64_t[]>> pages;
+  std::vector<uint64_t*> block_keys;       ///< #blocks (null for a block without triangles)
   std::vector<uint64_t> triangle_offsets;  ///< #blocks + 1
   std::vector<Vec3i> origins;              ///< first cell of each marched block
   int block_cells = 0;
+
+  std::size_t corner_count() const { return triangle_offsets.empty() ? 0 : 3 * std::size_t(triangle_offsets.back()); }
+  std::span<uint64_t> block(std::size_t b) const {
+    return {block_keys[b], 3 * std::size_t(triangle_offsets[b + 1] - triangle_offsets[b])};
+  }
+  /// All keys in block order, in one array.
+  std::vector<uint64_t> flatten() const;
 };
 
 /// Marching Tiles on an A15 field: the 46 acute tetrahedra of every cell.

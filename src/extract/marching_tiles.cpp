@@ -32,7 +32,7 @@ uint32_t march_tile_block(const PaddedMasks& masks, uint64_t* out) {
 }  // namespace
 
 MarchedCorners march_tiles(const SparseField& field, float iso) {
-  return march_blocks(field, iso, /*full_stencil=*/true, march_tile_block);
+  return march_blocks(field, iso, /*full_stencil=*/true, march_tile_block, 2 * kA15TetCount);
 }
 
 }  // namespace meniscus

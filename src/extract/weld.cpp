@@ -30,35 +30,47 @@ struct DenseEdgeKeys {
   uint64_t nx = 1, ny = 1;
   int bits = 1;  ///< every dense key is < 2^bits
 
-  explicit DenseEdgeKeys(std::span<const uint64_t> keys) {
-    struct Box {
-      Vec3i lo{kEdgeKeyMaxCoord, kEdgeKeyMaxCoord, kEdgeKeyMaxCoord};
-      Vec3i hi{-kEdgeKeyMaxCoord, -kEdgeKeyMaxCoord, -kEdgeKeyMaxCoord};
-      void add(Vec3i a, Vec3i b) {
-        lo = {std::min(lo.x, a.x), std::min(lo.y, a.y), std::min(lo.z, a.z)};
-        hi = {std::max(hi.x, b.x), std::max(hi.y, b.y), std::max(hi.z, b.z)};
+  struct Box {
+    Vec3i lo{kEdgeKeyMaxCoord, kEdgeKeyMaxCoord, kEdgeKeyMaxCoord};
+    Vec3i hi{-kEdgeKeyMaxCoord, -kEdgeKeyMaxCoord, -kEdgeKeyMaxCoord};
+    void add(Vec3i a, Vec3i b) {
+      lo = {std::min(lo.x, a.x), std::min(lo.y, a.y), std::min(lo.z, a.z)};
+      hi = {std::max(hi.x, b.x), std::max(hi.y, b.y), std::max(hi.z, b.z)};
+    }
+    void add(std::span<const uint64_t> keys) {
+      for (uint64_t k : keys) {
+        const Vec3i c = edge_key_cell(k);
+        add(c, c);
       }
-    };
+    }
+  };
+  /// The box of the base cells of `chunk_count` chunks of keys (chunk(i) → span), in parallel.
+  template <class Chunk>
+  DenseEdgeKeys(std::size_t chunk_count, Chunk&& chunk) {
     const Box box = tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, keys.size()), Box{},
+        tbb::blocked_range<std::size_t>(0, chunk_count), Box{},
         [&](const tbb::blocked_range<std::size_t>& r, Box b) {
-          for (std::size_t i = r.begin(); i != r.end(); ++i) {
-            const Vec3i c = edge_key_cell(keys[i]);
-            b.add(c, c);
-          }
+          for (std::size_t i = r.begin(); i != r.end(); ++i) b.add(chunk(i));
           return b;
         },
         [](Box a, const Box& b) {
           a.add(b.lo, b.hi);
           return a;
         });
-    if (keys.empty()) return;
+    if (box.lo.x > box.hi.x) return;  // no keys
     lo = box.lo;
     nx = uint64_t(int64_t(box.hi.x) - box.lo.x + 1);
     ny = uint64_t(int64_t(box.hi.y) - box.lo.y + 1);
     const uint64_t nz = uint64_t(int64_t(box.hi.z) - box.lo.z + 1);
     bits = int(std::bit_width(nx * ny * nz * 64 - 1));
   }
+  explicit DenseEdgeKeys(std::span<const uint64_t> keys)
+      : DenseEdgeKeys((keys.size() + kChunk - 1) / kChunk, [&](std::size_t i) {
+          return keys.subspan(i * kChunk, std::min(kChunk, keys.size() - i * kChunk));
+        }) {}
+  explicit DenseEdgeKeys(const MarchedCorners& m)
+      : DenseEdgeKeys(m.block_keys.size(), [&](std::size_t b) { return std::span<const uint64_t>(m.block(b)); }) {}
+  static constexpr std::size_t kChunk = 4096;
   uint64_t dense(uint64_t key) const {
     const Vec3i c = edge_key_cell(key);
     const uint64_t cell = (uint64_t(c.z - lo.z) * ny + uint64_t(c.y - lo.y)) * nx + uint64_t(c.x - lo.x);
@@ -227,11 +239,10 @@ void weld_packed(std::vector<uint64_t>& corner_keys, const DenseEdgeKeys& dense,
 /// sorting and without the sort's scratch copy of all corners.
 void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseField& field, float iso,
                  TriangleMesh& mesh) {
-  std::vector<uint64_t>& keys = m.keys;
   const std::size_t blocks = m.origins.size();
   const int span = m.block_cells + 4;  // base cells from origin − 2 to origin + n + 1
   const std::size_t slots = std::size_t(span) * std::size_t(span) * std::size_t(span) * 64;
-  mesh.triangles.resize(keys.size() / 3);
+  mesh.triangles.resize(m.corner_count() / 3);
   uint32_t* entry_of = mesh.triangles.data()->data();  // per corner: its block-local, then global, entry
 
   struct Table {
@@ -248,6 +259,7 @@ void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseFiel
     Table& t = tables.local();
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
       const std::size_t first = 3 * m.triangle_offsets[b], last = 3 * m.triangle_offsets[b + 1];
+      uint64_t* keys = m.block_keys[b] - first;  // keys[c] for c in [first, last)
       const Vec3i base = m.origins[b] - Vec3i{2, 2, 2};
       uint32_t count = 0;
       for (std::size_t c = first; c < last; ++c) {
@@ -280,11 +292,12 @@ void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseFiel
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
       const std::size_t first = 3 * m.triangle_offsets[b], base = entry_offsets[b];
       for (std::size_t e = base; e < entry_offsets[b + 1]; ++e)
-        packed[e] = (dense.dense(keys[first + (e - base)]) << index_bits) | e;
+        packed[e] = (dense.dense(m.block_keys[b][e - base]) << index_bits) | e;
       for (std::size_t c = first; c < 3 * m.triangle_offsets[b + 1]; ++c) entry_of[c] += uint32_t(base);
     }
   });
-  std::vector<uint64_t>().swap(keys);
+  m.pages.clear();  // the corner keys: every entry is in `packed` now
+  m.block_keys.clear();
   std::vector<uint32_t> vertex_of(entries);
   const std::vector<uint64_t> vertex_keys = number_runs(packed, index_bits, dense.bits, vertex_of.data());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, 3 * mesh.triangles.size()),
@@ -357,16 +370,16 @@ ExtractResult weld_edge_keys(std::vector<uint64_t> corner_keys, const SparseFiel
 
 ExtractResult weld_edge_keys(MarchedCorners marched, const SparseField& field, float iso) {
   if (marched.triangle_offsets.size() != marched.origins.size() + 1 ||
-      (!marched.origins.empty() && 3 * marched.triangle_offsets.back() != marched.keys.size()))
-    throw std::logic_error("weld_edge_keys: the block offsets do not match the corner keys");
+      marched.block_keys.size() != marched.origins.size())
+    throw std::logic_error("weld_edge_keys: the block offsets do not match the blocks");
   ExtractResult result;
-  const DenseEdgeKeys dense(marched.keys);
+  const DenseEdgeKeys dense(marched);
   // The entries are at most the corners: if their indices fit next to the key, the block weld
   // applies; otherwise (fields spread over most of the key range) the search fallback.
-  if (dense.bits + index_bits_for(marched.keys.size()) <= 64)
+  if (dense.bits + index_bits_for(marched.corner_count()) <= 64)
     weld_blocks(marched, dense, field, iso, result.mesh);
   else
-    weld_searched(marched.keys, dense, field, iso, result.mesh);
+    weld_searched(marched.flatten(), dense, field, iso, result.mesh);
   drop_repeated_triangles(result);
   return result;
 }

@@ -13,6 +13,39 @@ namespace meniscus {
 
 namespace {
 
+/// The K smallest (distance, id) pairs offered, sorted by distance (ties: smaller id first), by
+/// insertion — the lists are short. The per-vertex caches keep K − 1 of them and use the K-th as
+/// the bound up to which the list is complete.
+template <int K>
+struct NearestK {
+  struct Candidate {
+    float distance;
+    uint32_t id;
+  };
+  std::array<Candidate, K> best;
+  int count = 0;
+  void offer(float distance, uint32_t id) {
+    if (count == K && distance >= best[K - 1].distance) return;
+    int k = count < K ? count++ : K - 1;
+    while (k > 0 && (best[k - 1].distance > distance || (best[k - 1].distance == distance && best[k - 1].id > id))) {
+      best[k] = best[k - 1];
+      --k;
+    }
+    best[k] = {distance, id};
+  }
+  /// Stores the first `capacity` ids at `slots` and returns how many.
+  uint32_t store(int capacity, uint32_t* slots) const {
+    const int stored = std::min(count, capacity);
+    for (int k = 0; k < stored; ++k) slots[k] = best[std::size_t(k)].id;
+    return uint32_t(stored);
+  }
+  /// The distance of the first candidate a list of `capacity` leaves out, or `otherwise` (the
+  /// search radius) when it leaves none out: the list holds every candidate strictly below it.
+  float first_left_out(int capacity, float otherwise) const {
+    return count > capacity ? best[std::size_t(capacity)].distance : otherwise;
+  }
+};
+
 HashGrid::Nearest nearest_particle(const ShellConstraint& c, Vec3f x) { return constraint_nearest(*c.particles, x, c.r_outer); }
 
 template <class NearestFn>
@@ -28,31 +61,16 @@ Vec3f project_vertex(const ShellConstraint& c, Vec3f x) {
 }
 
 void NeighbourCache::refresh(const ShellConstraint& c, uint32_t i, Vec3f y) {
-  // The kCapacity + 1 nearest particles within r_outer + margin, by insertion (lists are short).
-  struct Candidate {
-    float d2;
-    uint32_t id;
-  };
-  std::array<Candidate, kCapacity + 1> best;
-  int n = 0;
+  // The kCapacity + 1 nearest particles within r_outer + margin (distances, so the reach is one).
+  NearestK<kCapacity + 1> nearest;  // by squared distance
   const float radius = c.r_outer + margin_;
-  c.particles->for_each_within(y, radius, [&](uint32_t id, float d2) {
-    if (n == kCapacity + 1 && d2 >= best[kCapacity].d2) return;
-    int k = n < kCapacity + 1 ? n++ : kCapacity;
-    while (k > 0 && (best[k - 1].d2 > d2 || (best[k - 1].d2 == d2 && best[k - 1].id > id))) {
-      best[k] = best[k - 1];
-      --k;
-    }
-    best[k] = {d2, id};
-  });
+  c.particles->for_each_within(y, radius, [&](uint32_t id, float d2) { nearest.offer(d2, id); });
   Entry& e = entries_[i];
   e.anchor = y;
-  e.count = uint32_t(std::min(n, kCapacity));
-  // With more than kCapacity particles in range, the list is complete only up to the first one
-  // left out (strictly below its distance).
-  e.reach = n > kCapacity ? std::sqrt(best[kCapacity].d2) * (1.0f - 1e-6f) : radius;
-  uint32_t* slots = ids_.data() + std::size_t(i) * kCapacity;
-  for (uint32_t k = 0; k < e.count; ++k) slots[k] = best[k].id;
+  e.count = nearest.store(kCapacity, ids_.data() + std::size_t(i) * kCapacity);
+  // Complete within the radius, or only up to (strictly below) the first particle left out.
+  const float left_out2 = nearest.first_left_out(kCapacity, -1.0f);
+  e.reach = left_out2 >= 0 ? std::sqrt(left_out2) * (1.0f - 1e-6f) : radius;
 }
 
 HashGrid::Nearest NeighbourCache::scan(const ShellConstraint& c, uint32_t i, Vec3f y, float moved) const {
@@ -217,30 +235,18 @@ Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x) {
 void EllipsoidCache::refresh(const EllipsoidConstraint& c, uint32_t i, Vec3f y) {
   // The kCapacity + 1 metric-nearest particles of metric distance ≤ r_outer + margin: every such
   // particle lies within max_axis·(r_outer + margin) of y (as in nearest_in_metric).
-  struct Candidate {
-    float m;
-    uint32_t id;
-  };
-  std::array<Candidate, kCapacity + 1> best;
-  int n = 0;
+  NearestK<kCapacity + 1> nearest;
   const float radius = c.r_outer + margin_;
   const auto points = c.particles->sorted_points();
   c.particles->for_each_within(y, c.max_axis * radius * 1.0001f, [&](uint32_t id, float) {
     const float m = metric_distance(c.ellipsoids[id].metric, y, points[id]);
-    if (m > radius || (n == kCapacity + 1 && m >= best[kCapacity].m)) return;
-    int k = n < kCapacity + 1 ? n++ : kCapacity;
-    while (k > 0 && (best[k - 1].m > m || (best[k - 1].m == m && best[k - 1].id > id))) {
-      best[k] = best[k - 1];
-      --k;
-    }
-    best[k] = {m, id};
+    if (m <= radius) nearest.offer(m, id);
   });
   Entry& e = entries_[i];
   e.anchor = y;
-  e.count = uint32_t(std::min(n, kCapacity));
-  e.reach = (n > kCapacity ? best[kCapacity].m : radius) * (1.0f - 1e-5f);
-  uint32_t* slots = ids_.data() + std::size_t(i) * kCapacity;
-  for (uint32_t k = 0; k < e.count; ++k) slots[k] = best[k].id;
+  e.count = nearest.store(kCapacity, ids_.data() + std::size_t(i) * kCapacity);
+  // (1 − 1e-5: the metric distances are evaluated in float at the anchor and at y.)
+  e.reach = nearest.first_left_out(kCapacity, radius) * (1.0f - 1e-5f);
 }
 
 MetricNearest EllipsoidCache::scan(const EllipsoidConstraint& c, uint32_t i, Vec3f y, float moved) const {

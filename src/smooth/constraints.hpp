@@ -21,6 +21,15 @@ struct ShellConstraint {
 /// particle, so the result satisfies the constraint against its *new* nearest particle.
 Vec3f project_vertex(const ShellConstraint& c, Vec3f x);
 
+/// The per-vertex record of NeighbourCache and EllipsoidCache (the list's ids are stored apart).
+struct CachedParticleList {
+  Vec3f anchor;               ///< where the list was made
+  float reach = 0;            ///< every particle within this distance (or metric distance) is listed
+  uint32_t count = 0;
+  Vec3f last{NAN, NAN, NAN};  ///< where the last projection left the vertex
+  float slack = 0;            ///< its nearest (metric) distance stays in the shell within this move
+};
+
 /// Per-vertex lists of the particles near each vertex, so that the projection in the smoothing
 /// sweeps (where vertices move little from one sweep to the next) scans a short contiguous
 /// list instead of querying the hash grid. Each list holds the (at most kCapacity) particles
@@ -48,13 +57,7 @@ class NeighbourCache {
   }
 
  private:
-  struct Entry {
-    Vec3f anchor;
-    float reach = 0;   ///< every particle within this distance of the anchor is listed
-    uint32_t count = 0;
-    Vec3f last{NAN, NAN, NAN};  ///< where the last projection left the vertex
-    float slack = 0;            ///< its nearest distance stays in the shell within this move
-  };
+  using Entry = CachedParticleList;
   void refresh(const ShellConstraint& c, uint32_t i, Vec3f y);
   HashGrid::Nearest scan(const ShellConstraint& c, uint32_t i, Vec3f y, float moved) const;
   float margin_ = 0;
@@ -109,13 +112,7 @@ class EllipsoidCache {
   }
 
  private:
-  struct Entry {
-    Vec3f anchor;
-    float reach = 0;  ///< every particle within this metric distance of the anchor is listed
-    uint32_t count = 0;
-    Vec3f last{NAN, NAN, NAN};  ///< where the last projection left the vertex
-    float slack = 0;            ///< metric slack of that position inside its shell
-  };
+  using Entry = CachedParticleList;
   void refresh(const EllipsoidConstraint& c, uint32_t i, Vec3f y);
   MetricNearest scan(const EllipsoidConstraint& c, uint32_t i, Vec3f y, float moved) const;
   MetricNearest nearest(const EllipsoidConstraint& c, uint32_t i, Vec3f y);

@@ -259,11 +259,11 @@ void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseFiel
     Table& t = tables.local();
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
       const std::size_t first = 3 * m.triangle_offsets[b], last = 3 * m.triangle_offsets[b + 1];
-      uint64_t* keys = m.block_keys[b] - first;  // keys[c] for c in [first, last)
+      uint64_t* keys = m.block_keys[b];  // corner c's key is keys[c − first]
       const Vec3i base = m.origins[b] - Vec3i{2, 2, 2};
       uint32_t count = 0;
       for (std::size_t c = first; c < last; ++c) {
-        const uint64_t key = keys[c];
+        const uint64_t key = keys[c - first];
         const Vec3i l = edge_key_cell(key) - base;
         if (l.x < 0 || l.y < 0 || l.z < 0 || l.x >= span || l.y >= span || l.z >= span)
           throw std::logic_error("weld: an edge lies more than 2 cells outside the block that marched it");
@@ -274,7 +274,7 @@ void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseFiel
           e = count++;
           t.entry[slot] = e;
           t.touched.push_back(uint32_t(slot));
-          keys[first + e] = key;  // compacted in place: first + e ≤ c, already read
+          keys[e] = key;  // compacted in place: e ≤ c − first, already read
         }
         entry_of[c] = e;
       }

@@ -213,6 +213,12 @@ std::vector<uint64_t> number_runs(std::vector<uint64_t>& packed, int index_bits,
   return vertex_keys;
 }
 
+/// The triangles' corners as one array of 3 indices per triangle (null when there are none).
+uint32_t* corner_data(std::vector<Triangle>& triangles) {
+  static_assert(sizeof(Triangle) == 3 * sizeof(uint32_t), "Triangle must be three packed indices");
+  return reinterpret_cast<uint32_t*>(triangles.data());
+}
+
 int index_bits_for(std::size_t count) { return count < 2 ? 1 : int(std::bit_width(count - 1)); }
 
 /// Without the block structure: every corner's dense key and index packed in place (the largest
@@ -226,7 +232,7 @@ void weld_packed(std::vector<uint64_t>& corner_keys, const DenseEdgeKeys& dense,
     for (std::size_t i = r.begin(); i != r.end(); ++i) packed[i] = (dense.dense(packed[i]) << index_bits) | i;
   });
   std::vector<Triangle> triangles(n / 3);
-  const std::vector<uint64_t> vertex_keys = number_runs(packed, index_bits, dense.bits, triangles.data()->data());
+  const std::vector<uint64_t> vertex_keys = number_runs(packed, index_bits, dense.bits, corner_data(triangles));
   mesh.triangles = std::move(triangles);
   compute_vertices(vertex_keys, dense, field, iso, mesh);
 }
@@ -243,7 +249,7 @@ void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseFiel
   const int span = m.block_cells + 4;  // base cells from origin − 2 to origin + n + 1
   const std::size_t slots = std::size_t(span) * std::size_t(span) * std::size_t(span) * 64;
   mesh.triangles.resize(m.corner_count() / 3);
-  uint32_t* entry_of = mesh.triangles.data()->data();  // per corner: its block-local, then global, entry
+  uint32_t* entry_of = corner_data(mesh.triangles);  // per corner: its block-local, then global, entry
 
   struct Table {
     std::vector<uint32_t> entry;    // per slot: the block-local entry, kNotFound when unused

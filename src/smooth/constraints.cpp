@@ -101,23 +101,26 @@ void NeighbourCache::build(const ShellConstraint& c, std::span<const Vec3f> x) {
   margin_ = 0.3f * c.r_outer;
   entries_.resize(x.size());
   ids_.resize(x.size() * kCapacity);
+  slack_.assign(x.size(), -1.0f);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 1024), [&](const auto& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) refresh(c, uint32_t(i), x[i]);
   });
 }
 
-Vec3f NeighbourCache::project(const ShellConstraint& c, uint32_t i, Vec3f x) {
+void NeighbourCache::forget_slack() { std::fill(slack_.begin(), slack_.end(), -1.0f); }
+
+Vec3f NeighbourCache::project(const ShellConstraint& c, uint32_t i, Vec3f x, Vec3f from) {
   // The nearest distance D is 1-Lipschitz: a vertex that moved m ≤ slack from where its last
   // projection left it (with D − r_inner ≥ slack and r_outer − D ≥ slack there) is inside its shell
   // without any query, and project_with would return it unchanged. The margins keep this exact
   // under rounding (project_with accepts 4e-6 outside the shell).
-  Entry& e = entries_[i];
-  const float moved_since = length(x - e.last);
-  if (moved_since <= e.slack) {
-    e.slack -= moved_since;
-    e.last = x;
+  float& slack = slack_[i];
+  const float moved_since = length(x - from);
+  if (moved_since <= slack) {
+    slack -= moved_since;
     return x;
   }
+  Entry& e = entries_[i];
   float last_dist2 = -1;
   const Vec3f out = project_with(c, x, [&](Vec3f y) {
     float moved = length(y - e.anchor);
@@ -131,12 +134,10 @@ Vec3f NeighbourCache::project(const ShellConstraint& c, uint32_t i, Vec3f x) {
     last_dist2 = n.dist2;
     return n;
   });
-  e.last = out;
-  e.slack = 0;
+  slack = 0;
   if (out == x && last_dist2 >= 0) {  // accepted as it was: its distance is last_dist2
     const float dist = std::sqrt(last_dist2);
-    const float slack = std::min(dist - c.r_inner, c.r_outer - dist) - 1e-5f * c.r_outer;
-    e.slack = std::max(slack, 0.0f);
+    slack = std::max(std::min(dist - c.r_inner, c.r_outer - dist) - 1e-5f * c.r_outer, 0.0f);
   }
   return out;
 }
@@ -285,30 +286,29 @@ void EllipsoidCache::build(const EllipsoidConstraint& c, std::span<const Vec3f> 
   margin_ = 0.3f * c.r_outer;
   entries_.assign(x.size(), Entry{});
   ids_.resize(x.size() * kCapacity);
+  slack_.assign(x.size(), -1.0f);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 1024), [&](const auto& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) refresh(c, uint32_t(i), x[i]);
   });
 }
 
-Vec3f EllipsoidCache::project(const EllipsoidConstraint& c, uint32_t i, Vec3f x) {
+void EllipsoidCache::forget_slack() { std::fill(slack_.begin(), slack_.end(), -1.0f); }
+
+Vec3f EllipsoidCache::project(const EllipsoidConstraint& c, uint32_t i, Vec3f x, Vec3f from) {
   // The metric distance to the metric-nearest particle is L-Lipschitz: a vertex that moved m with
   // L·m ≤ slack from where its last projection left it is still inside its shell (the slack keeps
   // a margin over project_ellipsoid_with's acceptance tolerance).
-  Entry& e = entries_[i];
-  const float moved_since = lipschitz_ * length(x - e.last);
-  if (moved_since <= e.slack) {
-    e.slack -= moved_since;
-    e.last = x;
+  float& slack = slack_[i];
+  const float moved_since = lipschitz_ * length(x - from);
+  if (moved_since <= slack) {
+    slack -= moved_since;
     return x;
   }
   float last_distance = -1;
   const Vec3f out = project_ellipsoid_with(c, x, [&](Vec3f y) { return nearest(c, i, y); }, &last_distance);
-  e.last = out;
-  e.slack = 0;
-  if (last_distance >= 0) {  // out measured last_distance from its metric-nearest particle
-    const float slack = std::min(last_distance - c.r_inner, c.r_outer - last_distance) - 1e-5f * c.r_outer;
-    e.slack = std::max(slack, 0.0f);
-  }
+  slack = 0;
+  if (last_distance >= 0)  // out measured last_distance from its metric-nearest particle
+    slack = std::max(std::min(last_distance - c.r_inner, c.r_outer - last_distance) - 1e-5f * c.r_outer, 0.0f);
   return out;
 }
 

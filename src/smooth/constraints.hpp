@@ -21,13 +21,12 @@ struct ShellConstraint {
 /// particle, so the result satisfies the constraint against its *new* nearest particle.
 Vec3f project_vertex(const ShellConstraint& c, Vec3f x);
 
-/// The per-vertex record of NeighbourCache and EllipsoidCache (the list's ids are stored apart).
+/// The per-vertex record of NeighbourCache and EllipsoidCache (the list's ids, and the slack the
+/// sweeps test first, are stored apart).
 struct CachedParticleList {
-  Vec3f anchor;               ///< where the list was made
-  float reach = 0;            ///< every particle within this distance (or metric distance) is listed
+  Vec3f anchor;     ///< where the list was made
+  float reach = 0;  ///< every particle within this distance (or metric distance) is listed
   uint32_t count = 0;
-  Vec3f last{NAN, NAN, NAN};  ///< where the last projection left the vertex
-  float slack = 0;            ///< its nearest (metric) distance stays in the shell within this move
 };
 
 /// Per-vertex lists of the particles near each vertex, so that the projection in the smoothing
@@ -45,15 +44,22 @@ class NeighbourCache {
   static constexpr int kCapacity = 8;
   /// Lists, for every vertex, the particles nearest to its current position.
   void build(const ShellConstraint& c, std::span<const Vec3f> x);
-  /// project_vertex(c, x) for vertex i, using (and if needed refreshing) its list.
-  Vec3f project(const ShellConstraint& c, uint32_t i, Vec3f x);
-  /// Hints the cache to load vertex i's list (a few vertices before projecting it).
+  /// project_vertex(c, x) for vertex i, using (and if needed refreshing) its list. `from` is
+  /// where the vertex was before the move being projected, i.e. where its previous projection
+  /// left it (any value the first time): a vertex that moved less than its slack from there is
+  /// still inside its shell and returned at once.
+  Vec3f project(const ShellConstraint& c, uint32_t i, Vec3f x, Vec3f from);
+  /// For vertices moved other than by projections since (the energy guard's undo): no vertex may
+  /// then be skipped by its slack until it is projected again.
+  void forget_slack();
+  /// Hints the cache to load vertex i's slack and list (a few vertices before projecting it).
   void prefetch(uint32_t i) const {
+    __builtin_prefetch(&slack_[i]);
     __builtin_prefetch(&entries_[i]);
     __builtin_prefetch(ids_.data() + std::size_t(i) * kCapacity);
   }
   std::size_t memory_bytes() const {
-    return entries_.size() * sizeof(Entry) + ids_.size() * sizeof(uint32_t);
+    return entries_.size() * sizeof(Entry) + ids_.size() * sizeof(uint32_t) + slack_.size() * sizeof(float);
   }
 
  private:
@@ -63,6 +69,9 @@ class NeighbourCache {
   float margin_ = 0;
   std::vector<Entry> entries_;
   std::vector<uint32_t> ids_;  ///< kCapacity slots per vertex, nearest to the anchor first
+  /// Per vertex: how far it may move from where its last projection left it and stay inside its
+  /// shell (its nearest distance is 1-Lipschitz); negative: unknown.
+  std::vector<float> slack_;
 };
 
 /// Projects every vertex in parallel.
@@ -105,8 +114,11 @@ class EllipsoidCache {
  public:
   static constexpr int kCapacity = 8;
   void build(const EllipsoidConstraint& c, std::span<const Vec3f> x);
-  Vec3f project(const EllipsoidConstraint& c, uint32_t i, Vec3f x);
+  /// As NeighbourCache::project (`from`: where the previous projection left the vertex).
+  Vec3f project(const EllipsoidConstraint& c, uint32_t i, Vec3f x, Vec3f from);
+  void forget_slack();
   void prefetch(uint32_t i) const {
+    __builtin_prefetch(&slack_[i]);
     __builtin_prefetch(&entries_[i]);
     __builtin_prefetch(ids_.data() + std::size_t(i) * kCapacity);
   }
@@ -119,6 +131,7 @@ class EllipsoidCache {
   float lipschitz_ = 1, margin_ = 0;
   std::vector<Entry> entries_;
   std::vector<uint32_t> ids_;
+  std::vector<float> slack_;  ///< metric slack, as NeighbourCache's; negative: unknown
 };
 
 /// Max over the vertices of the metric distance outside [r_inner, r_outer] to the metric-nearest

@@ -44,11 +44,13 @@ double energy_of(const Adjacency& adj, const CotanOperator& op, std::span<const 
   return bilaplacian_energy(op, scratch);
 }
 
-/// The schedule; `project(i)` projects vertex i in place (when `constrained_any`), `prefetch_constraint(i)`
-/// hints its constraint data.
-template <class Project, class PrefetchConstraint>
+/// The schedule; `project(i, from)` projects vertex i in place (when `constrained_any`), `from` being
+/// where the vertex was before the move (where its previous projection left it);
+/// `prefetch_constraint(i)` hints its constraint data; `forget()` is called when the energy guard
+/// puts the vertices back where they were before a sweep.
+template <class Project, class PrefetchConstraint, class Forget>
 SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triangles, bool constrained_any,
-                         Project&& project_constraint, PrefetchConstraint&& prefetch_constraint,
+                         Project&& project_constraint, PrefetchConstraint&& prefetch_constraint, Forget&& forget,
                          const SmoothOptions& o, const std::function<void(double)>& progress) {
   SmoothReport report;
   const std::size_t nv = x.size();
@@ -63,8 +65,8 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
     ++done;
     if (progress && total > 0) progress(double(done) / total);
   };
-  auto project = [&](uint32_t i) {
-    if (constrained_any) project_constraint(i);
+  auto project = [&](uint32_t i, Vec3f from) {
+    if (constrained_any) project_constraint(i, from);
   };
   auto prefetch = [&](uint32_t i) {
     if (constrained_any) prefetch_constraint(i);
@@ -81,15 +83,16 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
       report.colors_a = colors.colors();
       for (int s = 0; s < o.steps_a; ++s, tick()) {
         for_each_in_colors(colors, [&](uint32_t i) {
-          x[i] = x[i] + (neighbour_mean(adj, x, i) - x[i]) * (w * vertex_factor(i));
-          project(i);
+          const Vec3f from = x[i];
+          x[i] = from + (neighbour_mean(adj, x, i) - from) * (w * vertex_factor(i));
+          project(i, from);
         }, prefetch);
       }
     } else {
       for (int s = 0; s < o.steps_a; ++s, tick()) {
         for_each_vertex(nv, [&](uint32_t i) { next[i] = x[i] + (neighbour_mean(adj, x, i) - x[i]) * (w * vertex_factor(i)); });
-        x.swap(next);
-        for_each_vertex(nv, project);
+        x.swap(next);  // next: where the vertices were
+        for_each_vertex(nv, [&](uint32_t i) { project(i, next[i]); });
       }
     }
   }
@@ -128,7 +131,7 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
         for_each_in_colors(colors, [&](uint32_t i) {
           const Vec3f before = x[i];
           x[i] -= bilaplacian_row_from_wx(adj, op, scratch, i) * (w * vertex_factor(i) / op.b_diag[i]);
-          if (constrained) project(i);
+          if (constrained) project(i, before);
           const Vec3f delta = x[i] - before;
           scratch[i] += delta * op.diag[i];
           for (uint32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) scratch[adj.neighbors[e]] += delta * op.w[e];
@@ -143,8 +146,9 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
         for_each_vertex(nv, [&](uint32_t i) { z[i] = scratch[i] / op.area[i]; });
         apply_w(adj, op, z, next);  // next = B x
         for_each_vertex(nv, [&](uint32_t i) {
+          const Vec3f from = x[i];
           x[i] -= next[i] * (w * vertex_factor(i) / op.b_diag[i]);
-          if (constrained) project(i);
+          if (constrained) project(i, from);
         });
       }
       // Gauss-Seidel kept scratch = W x current through the sweep: the energy needs no second pass
@@ -155,6 +159,7 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
       const double tolerance = constrained ? 0.05 : 1e-4;
       if (e > energy * (1.0 + tolerance) && w > 1.0f / 64) {
         x.swap(backup);
+        if (constrained_any) forget();
         w *= 0.5f;
         ++report.relax_halvings;
         energy_of(adj, op, x, scratch);
@@ -181,8 +186,9 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
   NeighbourCache cache;
   if (constraint) cache.build(*constraint, x);
   return smooth_with(
-      x, triangles, constraint != nullptr, [&](uint32_t i) { x[i] = cache.project(*constraint, i, x[i]); },
-      [&](uint32_t i) { cache.prefetch(i); }, o, progress);
+      x, triangles, constraint != nullptr,
+      [&](uint32_t i, Vec3f from) { x[i] = cache.project(*constraint, i, x[i], from); },
+      [&](uint32_t i) { cache.prefetch(i); }, [&] { cache.forget_slack(); }, o, progress);
 }
 
 SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> triangles,
@@ -192,8 +198,9 @@ SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> tri
   EllipsoidCache cache;
   if (constraint) cache.build(*constraint, x);
   return smooth_with(
-      x, triangles, constraint != nullptr, [&](uint32_t i) { x[i] = cache.project(*constraint, i, x[i]); },
-      [&](uint32_t i) { cache.prefetch(i); }, o, progress);
+      x, triangles, constraint != nullptr,
+      [&](uint32_t i, Vec3f from) { x[i] = cache.project(*constraint, i, x[i], from); },
+      [&](uint32_t i) { cache.prefetch(i); }, [&] { cache.forget_slack(); }, o, progress);
 }
 
 }  // namespace meniscus

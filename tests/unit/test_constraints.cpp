@@ -66,7 +66,7 @@ TEST(Constraint, NeighbourCacheProjectsExactlyAsTheGrid) {
     for (uint32_t i = 0; i < x.size(); ++i) {
       const Vec3f y = x[i] + Vec3f{step(rng), step(rng), step(rng)} * size;
       const Vec3f expected = project_vertex(c, y);
-      x[i] = cache.project(c, i, y);
+      x[i] = cache.project(c, i, y, x[i]);  // x[i]: where the previous projection left it
       ++compared;
       if (!(x[i] == expected)) ++mismatches;
     }
@@ -122,7 +122,7 @@ TEST(Constraint, EllipsoidCacheProjectsExactlyAsTheSearch) {
     for (uint32_t i = 0; i < x.size(); ++i) {
       const Vec3f y = x[i] + Vec3f{g(rng), g(rng), g(rng)} * size;
       const Vec3f expected = project_vertex(c, y);
-      x[i] = cache.project(c, i, y);
+      x[i] = cache.project(c, i, y, x[i]);  // x[i]: where the previous projection left it
       ++compared;
       unmoved += expected == y;
       if (!(x[i] == expected)) ++mismatches;
@@ -140,11 +140,13 @@ TEST(Constraint, EllipsoidCacheProjectsExactlyAsTheSearch) {
   for (auto& v : walk) v = Vec3f{0.5f, 0.5f, 0.5f} + Vec3f{u(rng), u(rng), u(rng)} * 0.1f;
   EllipsoidCache walker;
   walker.build(thin, walk);
+  std::vector<Vec3f> left = walk;  // where each point's previous projection left it
   std::size_t walk_mismatches = 0;
   for (int step = 0; step < 60; ++step)
     for (uint32_t i = 0; i < walk.size(); ++i) {
       walk[i] += Vec3f{g(rng), g(rng), g(rng)} * 0.003f;
-      walk_mismatches += !(walker.project(thin, i, walk[i]) == project_vertex(thin, walk[i]));
+      left[i] = walker.project(thin, i, walk[i], left[i]);
+      walk_mismatches += !(left[i] == project_vertex(thin, walk[i]));
     }
   EXPECT_EQ(walk_mismatches, 0u);
 }

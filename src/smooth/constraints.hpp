@@ -41,7 +41,7 @@ struct CachedParticleList {
 /// projected by two threads at once.
 class NeighbourCache {
  public:
-  static constexpr int kCapacity = 8;
+  static constexpr int kCapacity = 4;
   /// Lists, for every vertex, the particles nearest to its current position.
   void build(const ShellConstraint& c, std::span<const Vec3f> x);
   /// project_vertex(c, x) for vertex i, using (and if needed refreshing) its list. `from` is

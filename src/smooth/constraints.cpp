@@ -65,9 +65,9 @@ void NeighbourCache::refresh(const ShellConstraint& c, uint32_t i, Vec3f y) {
   NearestK<kCapacity + 1> nearest;  // by squared distance
   const float radius = c.r_outer + margin_;
   c.particles->for_each_within(y, radius, [&](uint32_t id, float d2) { nearest.offer(d2, id); });
-  Entry& e = entries_[i];
+  CachedParticleList& e = entries_[i];
   e.anchor = y;
-  e.count = nearest.store(kCapacity, ids_.data() + std::size_t(i) * kCapacity);
+  e.count = nearest.store(kCapacity, slots(i));
   // Complete within the radius, or only up to (strictly below) the first particle left out.
   const float left_out2 = nearest.first_left_out(kCapacity, -1.0f);
   e.reach = left_out2 >= 0 ? std::sqrt(left_out2) * (1.0f - 1e-6f) : radius;
@@ -75,20 +75,20 @@ void NeighbourCache::refresh(const ShellConstraint& c, uint32_t i, Vec3f y) {
 
 HashGrid::Nearest NeighbourCache::scan(const ShellConstraint& c, uint32_t i, Vec3f y, float moved) const {
   const auto points = c.particles->sorted_points();
-  const Entry& e = entries_[i];
-  const uint32_t* slots = ids_.data() + std::size_t(i) * kCapacity;
+  const CachedParticleList& e = entries_[i];
+  const uint32_t* ids = slots(i);
   HashGrid::Nearest best;
   float best_dist = INFINITY;
   for (uint32_t k = 0; k < e.count; ++k) {
-    const Vec3f p = points[slots[k]];
+    const Vec3f p = points[ids[k]];
     // Sorted by distance to the anchor, and |p − y| ≥ |p − anchor| − moved: once the anchor
     // distance exceeds best + moved (with a rounding allowance), no later entry is nearer.
     const float from_anchor2 = length2(p - e.anchor);
     const float bound = (best_dist + moved) * (1.0f + 1e-5f);
     if (from_anchor2 > bound * bound) break;
     const float d2 = length2(p - y);
-    if (d2 < best.dist2 || (d2 == best.dist2 && slots[k] < best.index)) {
-      best = {slots[k], d2};
+    if (d2 < best.dist2 || (d2 == best.dist2 && ids[k] < best.index)) {
+      best = {ids[k], d2};
       best_dist = std::sqrt(d2);
     }
   }
@@ -99,28 +99,16 @@ HashGrid::Nearest NeighbourCache::scan(const ShellConstraint& c, uint32_t i, Vec
 
 void NeighbourCache::build(const ShellConstraint& c, std::span<const Vec3f> x) {
   margin_ = 0.3f * c.r_outer;
-  entries_.resize(x.size());
-  ids_.resize(x.size() * kCapacity);
-  slack_.assign(x.size(), -1.0f);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 1024), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) refresh(c, uint32_t(i), x[i]);
-  });
+  make_lists(x, [&](uint32_t i, Vec3f y) { refresh(c, i, y); });
 }
-
-void NeighbourCache::forget_slack() { std::fill(slack_.begin(), slack_.end(), -1.0f); }
 
 Vec3f NeighbourCache::project(const ShellConstraint& c, uint32_t i, Vec3f x, Vec3f from) {
   // The nearest distance D is 1-Lipschitz: a vertex that moved m ≤ slack from where its last
   // projection left it (with D − r_inner ≥ slack and r_outer − D ≥ slack there) is inside its shell
   // without any query, and project_with would return it unchanged. The margins keep this exact
   // under rounding (project_with accepts 4e-6 outside the shell).
-  float& slack = slack_[i];
-  const float moved_since = length(x - from);
-  if (moved_since <= slack) {
-    slack -= moved_since;
-    return x;
-  }
-  Entry& e = entries_[i];
+  if (still_inside(i, length(x - from))) return x;
+  CachedParticleList& e = entries_[i];
   float last_dist2 = -1;
   const Vec3f out = project_with(c, x, [&](Vec3f y) {
     float moved = length(y - e.anchor);
@@ -134,11 +122,8 @@ Vec3f NeighbourCache::project(const ShellConstraint& c, uint32_t i, Vec3f x, Vec
     last_dist2 = n.dist2;
     return n;
   });
-  slack = 0;
-  if (out == x && last_dist2 >= 0) {  // accepted as it was: its distance is last_dist2
-    const float dist = std::sqrt(last_dist2);
-    slack = std::max(std::min(dist - c.r_inner, c.r_outer - dist) - 1e-5f * c.r_outer, 0.0f);
-  }
+  // Accepted as it was: its distance is √last_dist2; otherwise the distance of `out` is unknown.
+  set_slack(i, out == x && last_dist2 >= 0 ? std::sqrt(last_dist2) : -1.0f, c.r_inner, c.r_outer);
   return out;
 }
 
@@ -243,20 +228,20 @@ void EllipsoidCache::refresh(const EllipsoidConstraint& c, uint32_t i, Vec3f y) 
     const float m = metric_distance(c.ellipsoids[id].metric, y, points[id]);
     if (m <= radius) nearest.offer(m, id);
   });
-  Entry& e = entries_[i];
+  CachedParticleList& e = entries_[i];
   e.anchor = y;
-  e.count = nearest.store(kCapacity, ids_.data() + std::size_t(i) * kCapacity);
+  e.count = nearest.store(kCapacity, slots(i));
   // (1 − 1e-5: the metric distances are evaluated in float at the anchor and at y.)
   e.reach = nearest.first_left_out(kCapacity, radius) * (1.0f - 1e-5f);
 }
 
 MetricNearest EllipsoidCache::scan(const EllipsoidConstraint& c, uint32_t i, Vec3f y, float moved) const {
   const auto points = c.particles->sorted_points();
-  const Entry& e = entries_[i];
-  const uint32_t* slots = ids_.data() + std::size_t(i) * kCapacity;
+  const CachedParticleList& e = entries_[i];
+  const uint32_t* ids = slots(i);
   MetricNearest best;
   for (uint32_t k = 0; k < e.count; ++k) {
-    const uint32_t id = slots[k];
+    const uint32_t id = ids[k];
     const float m = metric_distance(c.ellipsoids[id].metric, y, points[id]);
     if (m < best.distance || (m == best.distance && id < best.index)) best = {id, m};
   }
@@ -284,31 +269,16 @@ void EllipsoidCache::build(const EllipsoidConstraint& c, std::span<const Vec3f> 
   for (const Ellipsoid& e : c.ellipsoids) lipschitz_ = std::max(lipschitz_, 1.0f / e.min_axis);
   lipschitz_ *= 1.001f;  // the metric's eigenvectors are orthonormal only up to rounding
   margin_ = 0.3f * c.r_outer;
-  entries_.assign(x.size(), Entry{});
-  ids_.resize(x.size() * kCapacity);
-  slack_.assign(x.size(), -1.0f);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 1024), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) refresh(c, uint32_t(i), x[i]);
-  });
+  make_lists(x, [&](uint32_t i, Vec3f y) { refresh(c, i, y); });
 }
-
-void EllipsoidCache::forget_slack() { std::fill(slack_.begin(), slack_.end(), -1.0f); }
 
 Vec3f EllipsoidCache::project(const EllipsoidConstraint& c, uint32_t i, Vec3f x, Vec3f from) {
   // The metric distance to the metric-nearest particle is L-Lipschitz: a vertex that moved m with
-  // L·m ≤ slack from where its last projection left it is still inside its shell (the slack keeps
-  // a margin over project_ellipsoid_with's acceptance tolerance).
-  float& slack = slack_[i];
-  const float moved_since = lipschitz_ * length(x - from);
-  if (moved_since <= slack) {
-    slack -= moved_since;
-    return x;
-  }
+  // L·m ≤ slack from where its last projection left it is still inside its shell.
+  if (still_inside(i, lipschitz_ * length(x - from))) return x;
   float last_distance = -1;
   const Vec3f out = project_ellipsoid_with(c, x, [&](Vec3f y) { return nearest(c, i, y); }, &last_distance);
-  slack = 0;
-  if (last_distance >= 0)  // out measured last_distance from its metric-nearest particle
-    slack = std::max(std::min(last_distance - c.r_inner, c.r_outer - last_distance) - 1e-5f * c.r_outer, 0.0f);
+  set_slack(i, last_distance, c.r_inner, c.r_outer);  // out measured last_distance (−1: unknown)
   return out;
 }
 

@@ -1,6 +1,9 @@
 // meniscus — constraint projection against the particles (Williams 2008 §4.2).
 #pragma once
 
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -29,6 +32,60 @@ struct CachedParticleList {
   uint32_t count = 0;
 };
 
+/// What NeighbourCache and EllipsoidCache share: per vertex a CachedParticleList, K particle slots
+/// and the slack of the skip test — how far, in the constraint's distance, the vertex may move
+/// from where its last projection left it and stay inside its shell (negative: unknown).
+template <int K>
+class CachedParticleLists {
+ public:
+  static constexpr int kCapacity = K;
+  /// For vertices moved other than by projections since (the energy guard's undo): no vertex may
+  /// then be skipped by its slack until it is projected again.
+  void forget_slack() { std::fill(slack_.begin(), slack_.end(), -1.0f); }
+  /// Hints the cache to load vertex i's slack and list (a few vertices before projecting it).
+  void prefetch(uint32_t i) const {
+    __builtin_prefetch(&slack_[i]);
+    __builtin_prefetch(&entries_[i]);
+    __builtin_prefetch(slots(i));
+  }
+  std::size_t memory_bytes() const {
+    return entries_.size() * sizeof(CachedParticleList) + ids_.size() * sizeof(uint32_t) +
+           slack_.size() * sizeof(float);
+  }
+
+ protected:
+  /// One list per vertex, each made by refresh(i, x[i]) (in parallel), every slack unknown.
+  template <class Refresh>
+  void make_lists(std::span<const Vec3f> x, Refresh&& refresh) {
+    entries_.assign(x.size(), CachedParticleList{});
+    ids_.resize(x.size() * std::size_t(K));
+    slack_.assign(x.size(), -1.0f);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 1024), [&](const auto& r) {
+      for (std::size_t i = r.begin(); i != r.end(); ++i) refresh(uint32_t(i), x[i]);
+    });
+  }
+  /// Whether vertex i, having moved `moved` (in the constraint's distance) since its last
+  /// projection, is certainly still inside its shell; if so the move is taken off its slack.
+  bool still_inside(uint32_t i, float moved) {
+    float& slack = slack_[i];
+    if (!(moved <= slack)) return false;
+    slack -= moved;
+    return true;
+  }
+  /// The slack after a projection that left vertex i at `distance` from its nearest particle
+  /// (negative: not known, slack 0), less a margin over the projection's acceptance tolerance.
+  void set_slack(uint32_t i, float distance, float r_inner, float r_outer) {
+    slack_[i] = distance < 0 ? 0.0f
+                             : std::max(std::min(distance - r_inner, r_outer - distance) - 1e-5f * r_outer, 0.0f);
+  }
+  uint32_t* slots(uint32_t i) { return ids_.data() + std::size_t(i) * K; }
+  const uint32_t* slots(uint32_t i) const { return ids_.data() + std::size_t(i) * K; }
+
+  std::vector<CachedParticleList> entries_;
+  std::vector<uint32_t> ids_;  ///< K slots per vertex, nearest to the anchor first
+  std::vector<float> slack_;
+};
+
 /// Per-vertex lists of the particles near each vertex, so that the projection in the smoothing
 /// sweeps (where vertices move little from one sweep to the next) scans a short contiguous
 /// list instead of querying the hash grid. Each list holds the (at most kCapacity) particles
@@ -39,39 +96,20 @@ struct CachedParticleList {
 /// list is rebuilt at y (and the grid answers if even that cannot certify). Each vertex touches
 /// only its own list, so vertices may be projected in parallel as long as no vertex is
 /// projected by two threads at once.
-class NeighbourCache {
+class NeighbourCache : public CachedParticleLists<4> {
  public:
-  static constexpr int kCapacity = 4;
   /// Lists, for every vertex, the particles nearest to its current position.
   void build(const ShellConstraint& c, std::span<const Vec3f> x);
   /// project_vertex(c, x) for vertex i, using (and if needed refreshing) its list. `from` is
   /// where the vertex was before the move being projected, i.e. where its previous projection
   /// left it (any value the first time): a vertex that moved less than its slack from there is
-  /// still inside its shell and returned at once.
+  /// still inside its shell (its nearest distance is 1-Lipschitz) and returned at once.
   Vec3f project(const ShellConstraint& c, uint32_t i, Vec3f x, Vec3f from);
-  /// For vertices moved other than by projections since (the energy guard's undo): no vertex may
-  /// then be skipped by its slack until it is projected again.
-  void forget_slack();
-  /// Hints the cache to load vertex i's slack and list (a few vertices before projecting it).
-  void prefetch(uint32_t i) const {
-    __builtin_prefetch(&slack_[i]);
-    __builtin_prefetch(&entries_[i]);
-    __builtin_prefetch(ids_.data() + std::size_t(i) * kCapacity);
-  }
-  std::size_t memory_bytes() const {
-    return entries_.size() * sizeof(Entry) + ids_.size() * sizeof(uint32_t) + slack_.size() * sizeof(float);
-  }
 
  private:
-  using Entry = CachedParticleList;
   void refresh(const ShellConstraint& c, uint32_t i, Vec3f y);
   HashGrid::Nearest scan(const ShellConstraint& c, uint32_t i, Vec3f y, float moved) const;
   float margin_ = 0;
-  std::vector<Entry> entries_;
-  std::vector<uint32_t> ids_;  ///< kCapacity slots per vertex, nearest to the anchor first
-  /// Per vertex: how far it may move from where its last projection left it and stay inside its
-  /// shell (its nearest distance is 1-Lipschitz); negative: unknown.
-  std::vector<float> slack_;
 };
 
 /// Projects every vertex in parallel.
@@ -110,28 +148,18 @@ Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x);
 /// at all while L·(its move) ≤ s. Otherwise the list is rebuilt at y, and nearest_in_metric
 /// answers if even that cannot certify. Gives exactly project_vertex(c, x); each vertex touches
 /// only its own list (vertices may be projected in parallel, no vertex by two threads at once).
-class EllipsoidCache {
+class EllipsoidCache : public CachedParticleLists<8> {
  public:
-  static constexpr int kCapacity = 8;
   void build(const EllipsoidConstraint& c, std::span<const Vec3f> x);
-  /// As NeighbourCache::project (`from`: where the previous projection left the vertex).
+  /// As NeighbourCache::project (`from`: where the previous projection left the vertex; the
+  /// slack is in metric units).
   Vec3f project(const EllipsoidConstraint& c, uint32_t i, Vec3f x, Vec3f from);
-  void forget_slack();
-  void prefetch(uint32_t i) const {
-    __builtin_prefetch(&slack_[i]);
-    __builtin_prefetch(&entries_[i]);
-    __builtin_prefetch(ids_.data() + std::size_t(i) * kCapacity);
-  }
 
  private:
-  using Entry = CachedParticleList;
   void refresh(const EllipsoidConstraint& c, uint32_t i, Vec3f y);
   MetricNearest scan(const EllipsoidConstraint& c, uint32_t i, Vec3f y, float moved) const;
   MetricNearest nearest(const EllipsoidConstraint& c, uint32_t i, Vec3f y);
   float lipschitz_ = 1, margin_ = 0;
-  std::vector<Entry> entries_;
-  std::vector<uint32_t> ids_;
-  std::vector<float> slack_;  ///< metric slack, as NeighbourCache's; negative: unknown
 };
 
 /// Max over the vertices of the metric distance outside [r_inner, r_outer] to the metric-nearest

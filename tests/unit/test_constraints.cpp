@@ -41,16 +41,23 @@ TEST(Constraint, ProjectedVerticesSatisfyTheShellOfTheirNearestParticle) {
   EXPECT_EQ(violations, 0u);
 }
 
+/// `uniform` particles spread over the unit cube and 200 packed into a 0.1-wide cluster at its
+/// centre (where the caches' lists are truncated), drawn from `rng`.
+std::vector<Vec3f> cloud_with_cluster(std::mt19937& rng, int uniform) {
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<Vec3f> particles;
+  for (int i = 0; i < uniform; ++i) particles.push_back({u(rng), u(rng), u(rng)});
+  for (int i = 0; i < 200; ++i) particles.push_back(Vec3f{0.5f, 0.5f, 0.5f} + Vec3f{u(rng), u(rng), u(rng)} * 0.1f);
+  return particles;
+}
+
 // The per-vertex lists must give exactly the grid's answer however the vertices wander: small
 // steps (the early exit and the certification by reach − moved), large jumps (refresh), dense
 // clusters with more than kCapacity particles in range (reach shortened to the first left out)
 // and vertices far from every particle (grid fallback).
 TEST(Constraint, NeighbourCacheProjectsExactlyAsTheGrid) {
   std::mt19937 rng(5);
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  std::vector<Vec3f> particles;
-  for (int i = 0; i < 600; ++i) particles.push_back({u(rng), u(rng), u(rng)});
-  for (int i = 0; i < 200; ++i) particles.push_back(Vec3f{0.5f, 0.5f, 0.5f} + Vec3f{u(rng), u(rng), u(rng)} * 0.1f);
+  const std::vector<Vec3f> particles = cloud_with_cluster(rng, 600);
   const float r_in = 0.05f, r_out = 0.1f;
   const HashGrid grid(particles, 2 * r_out);
   const ShellConstraint c{&grid, r_in, r_out};
@@ -81,10 +88,8 @@ TEST(Constraint, NeighbourCacheProjectsExactlyAsTheGrid) {
 // cache must answer exactly as project_vertex.
 TEST(Constraint, EllipsoidCacheProjectsExactlyAsTheSearch) {
   std::mt19937 rng(8);
+  const std::vector<Vec3f> particles = cloud_with_cluster(rng, 500);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  std::vector<Vec3f> particles;
-  for (int i = 0; i < 500; ++i) particles.push_back({u(rng), u(rng), u(rng)});
-  for (int i = 0; i < 200; ++i) particles.push_back(Vec3f{0.5f, 0.5f, 0.5f} + Vec3f{u(rng), u(rng), u(rng)} * 0.1f);
   const float r_in = 0.05f, r_out = 0.1f;
   const HashGrid grid(particles, 2 * r_out);
   std::normal_distribution<float> g(0.0f, 1.0f);

@@ -10,6 +10,7 @@
 #include <numbers>
 
 #include "grid/hash_grid.hpp"
+#include "mesh/ray_parity_impl.hpp"
 
 namespace meniscus {
 
@@ -291,8 +292,9 @@ std::size_t points_outside(const TriangleMesh& mesh, std::span<const Vec3f> poin
   Vec3f lo = mesh.vertices[mesh.triangles[0][0]], hi = lo;
   for (const Triangle& t : mesh.triangles)
     for (uint32_t v : t) lo = min(lo, mesh.vertices[v]), hi = max(hi, mesh.vertices[v]);
-  const int res = std::clamp(int(std::sqrt(double(mesh.triangles.size()))), 1, 2048);
-  const double sy = std::max(double(hi.y - lo.y), 1e-30) / res, sz = std::max(double(hi.z - lo.z), 1e-30) / res;
+  const RayParityFrame frame = ray_parity_frame(lo, hi, mesh.triangles.size());
+  const int res = frame.res;
+  const double sy = frame.sy, sz = frame.sz;
   auto cell = [&](double v, double origin, double size) { return std::clamp(int((v - origin) / size), 0, res - 1); };
   std::vector<uint32_t> start(std::size_t(res) * res + 1, 0), ids;
   for (int pass = 0; pass < 2; ++pass) {
@@ -318,26 +320,17 @@ std::size_t points_outside(const TriangleMesh& mesh, std::span<const Vec3f> poin
       tbb::blocked_range<std::size_t>(0, points.size(), 256), std::size_t(0),
       [&](const auto& r, std::size_t outside) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          // Nudge the ray off the lattice the extraction vertices may share with the point.
-          const double py = double(points[i].y) + 1.234567e-7 * sy, pz = double(points[i].z) + 2.345671e-7 * sz;
-          const double px = points[i].x;
-          if (py < lo.y || py > hi.y || pz < lo.z || pz > hi.z || px > hi.x) {
+          double px, py, pz;
+          if (!ray_parity_origin(frame, points[i], &px, &py, &pz)) {
             ++outside;
             continue;
           }
+          // Only the triangles of the point's bucket can be crossed (their y-z boxes hold it).
           const std::size_t k = std::size_t(cell(pz, lo.z, sz)) * res + cell(py, lo.y, sy);
           int crossings = 0;
           for (uint32_t j = start[k]; j < start[k + 1]; ++j) {
             const Triangle& t = mesh.triangles[ids[j]];
-            const Vec3f a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], c = mesh.vertices[t[2]];
-            // Barycentrics of (py, pz) in the triangle's y-z projection.
-            const double d = (double(b.y) - a.y) * (double(c.z) - a.z) - (double(c.y) - a.y) * (double(b.z) - a.z);
-            if (d == 0) continue;
-            const double u = ((py - a.y) * (double(c.z) - a.z) - (double(c.y) - a.y) * (pz - a.z)) / d;
-            const double v = ((double(b.y) - a.y) * (pz - a.z) - (py - a.y) * (double(b.z) - a.z)) / d;
-            if (u < 0 || v < 0 || u + v > 1) continue;
-            const double x = a.x + u * (double(b.x) - a.x) + v * (double(c.x) - a.x);
-            if (x > px) ++crossings;
+            crossings += ray_crosses(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]], px, py, pz);
           }
           outside += (crossings % 2) == 0;
         }

@@ -64,13 +64,7 @@ __global__ void distance_kernel(GridView grid, const uint64_t* block_keys, int n
           for (uint32_t pi = r.first; pi < r.second; ++pi) {
             const Vec3f p = grid.sorted[pi];
             // The same reach test as the CPU's scatter: is this sample in p's band box?
-            bool inside = true;
-            for (int ax = 0; ax < 3; ++ax) {
-              int32_t lo, hi;
-              particle_cell_range(p[ax], band, inv_a, off[ax], &lo, &hi);
-              inside = inside && lo <= g[ax] && g[ax] <= hi;
-            }
-            if (!inside) continue;
+            if (!sample_in_reach(p, band, inv_a, off, g)) continue;
             const float dx = sample_delta(g.x, off[0], a, p.x);
             const float dy = sample_delta(g.y, off[1], a, p.y);
             const float dz = sample_delta(g.z, off[2], a, p.z);

@@ -47,6 +47,19 @@ MENISCUS_HD inline void particle_cell_range(float p, float band, float inv_a, fl
   *hi = floor_to_int((p + band) * inv_a - offset);
 }
 
+/// Whether sample `s` of lattice cell `cell` (offsets `off`, in cells) is among the samples the
+/// scatter of a particle at p with reach `radius` visits (its clipped box, particle_cell_range):
+/// the gathers test this so they sum exactly the terms the scatters add.
+MENISCUS_HD inline bool sample_in_reach(Vec3f p, float radius, float inv_a, const float (&off)[3], Vec3i cell) {
+  bool inside = true;
+  for (int ax = 0; ax < 3; ++ax) {
+    int32_t lo, hi;
+    particle_cell_range(p[ax], radius, inv_a, off[ax], &lo, &hi);
+    inside = inside && lo <= cell[ax] && cell[ax] <= hi;
+  }
+  return inside;
+}
+
 /// One coordinate of the difference between a sample and a particle.
 MENISCUS_HD inline float sample_delta(int32_t cell, float offset, float a, float p) { return (float(cell) + offset) * a - p; }
 

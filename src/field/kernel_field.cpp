@@ -19,29 +19,28 @@ float kernel_support(const KernelFieldInput& in) {
 
 namespace {
 
-/// Calls f(sample index in block, sample position) for every sample of the block within
-/// `radius` of p (a box clip, as in distance_field).
+/// Calls f(sample index in block, sample position) for every sample of the block the particle at
+/// p reaches with `radius` (sample_in_reach's box, clipped to the block).
 template <class F>
 void for_samples_near(const SampleLattice& lattice, Vec3i origin, Vec3f p, float radius, F&& f) {
   const int n = lattice.block_cells(), spc = lattice.samples_per_cell();
   const float a = lattice.cell_size, inv_a = 1.0f / a;
   for (int s = 0; s < spc; ++s) {
-    const Vec3f off = lattice.sample_offset(s);
+    const Vec3f o = lattice.sample_offset(s);
+    const float off[3] = {o.x, o.y, o.z};
     int32_t lo[3], hi[3];
     bool empty = false;
     for (int ax = 0; ax < 3; ++ax) {
-      lo[ax] = std::max(int32_t(std::ceil((p[ax] - radius) * inv_a - off[ax])), origin[ax]) - origin[ax];
-      hi[ax] = std::min(int32_t(std::floor((p[ax] + radius) * inv_a - off[ax])), origin[ax] + n - 1) - origin[ax];
+      particle_cell_range(p[ax], radius, inv_a, off[ax], &lo[ax], &hi[ax]);
+      lo[ax] = std::max(lo[ax], origin[ax]) - origin[ax];
+      hi[ax] = std::min(hi[ax], origin[ax] + n - 1) - origin[ax];
       empty |= lo[ax] > hi[ax];
     }
     if (empty) continue;
     for (int32_t z = lo[2]; z <= hi[2]; ++z)
       for (int32_t y = lo[1]; y <= hi[1]; ++y)
-        for (int32_t x = lo[0]; x <= hi[0]; ++x) {
-          const Vec3f q{(float(origin.x + x) + off.x) * a, (float(origin.y + y) + off.y) * a,
-                        (float(origin.z + z) + off.z) * a};
-          f(std::size_t(((z * n + y) * n + x) * spc + s), q);
-        }
+        for (int32_t x = lo[0]; x <= hi[0]; ++x)
+          f(std::size_t(((z * n + y) * n + x) * spc + s), kernel_sample_point({origin.x + x, origin.y + y, origin.z + z}, off, a));
   }
 }
 
@@ -58,68 +57,52 @@ void for_particles_near_block(const HashGrid& grid, const SampleLattice& lattice
 
 }  // namespace
 
+KernelParticles kernel_particles(const KernelFieldInput& in) {
+  KernelParticles k;
+  k.method = in.method;
+  k.radius = in.kernel_radius;
+  k.volumes = in.volumes.empty() ? nullptr : in.volumes.data();
+  k.uniform_volume = in.uniform_volume;
+  k.ellipsoids = in.ellipsoids.empty() ? nullptr : in.ellipsoids.data();
+  return k;
+}
+
+float kernel_background(const KernelFieldInput& in) {
+  return in.method == FieldMethod::zhu_bridson ? in.kernel_radius - in.iso : in.iso;
+}
+
 SparseField kernel_field(const KernelFieldInput& in, const SampleLattice& lattice, std::vector<uint64_t> block_keys) {
-  const float R = in.kernel_radius, iso = in.iso;
-  const bool zb = in.method == FieldMethod::zhu_bridson;
-  const float background = zb ? R - iso : iso;
+  const float background = kernel_background(in);
   SparseField field(lattice, std::move(block_keys), background);
   const HashGrid& grid = *in.centres;
   const auto points = grid.sorted_points();
   const float support = kernel_support(in);
-  auto volume = [&](uint32_t i) { return in.volumes.empty() ? in.uniform_volume : in.volumes[i]; };
+  const KernelParticles k = kernel_particles(in);
 
+  // Each block scatters its particles into its samples' sums (kernel_impl.hpp has the per-sample
+  // arithmetic, which the CUDA backend gathers).
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, field.block_count(), 2), [&](const auto& r) {
-    std::array<float, kBlockSamples> sum;
-    std::array<Vec3f, kBlockSamples> weighted;  // zhu-bridson: Σ k_i x_i
+    std::array<KernelSum, kBlockSamples> sums;
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
-      sum.fill(0.0f);
-      if (zb) weighted.fill(Vec3f{0, 0, 0});
+      sums.fill(KernelSum{});
       const Vec3i origin = field.block_origin(b);
       for_particles_near_block(grid, lattice, origin, support, [&](uint32_t i) {
         const Vec3f p = points[i];
-        switch (in.method) {
-          case FieldMethod::metaball:
-            for_samples_near(lattice, origin, p, R, [&](std::size_t k, Vec3f q) { sum[k] += metaball_kernel(length2(q - p), R); });
-            break;
-          case FieldMethod::sph: {
-            const float v = volume(i);
-            for_samples_near(lattice, origin, p, R, [&](std::size_t k, Vec3f q) { sum[k] += v * poly6_kernel(length2(q - p), R); });
-            break;
-          }
-          case FieldMethod::zhu_bridson:
-            for_samples_near(lattice, origin, p, R, [&](std::size_t k, Vec3f q) {
-              const float w = zhu_bridson_weight(length2(q - p), R);
-              sum[k] += w;
-              weighted[k] += p * w;
-            });
-            break;
-          case FieldMethod::anisotropic: {
-            const float v = volume(i);
-            const Ellipsoid& e = in.ellipsoids[i];
-            for_samples_near(lattice, origin, p, R * e.max_axis,
-                             [&](std::size_t k, Vec3f q) { sum[k] += v * anisotropic_kernel(e, q - p, R); });
-            break;
-          }
-          case FieldMethod::distance: break;
-        }
+        for_samples_near(lattice, origin, p, kernel_reach(k, i),
+                         [&](std::size_t s, Vec3f q) { kernel_add(k, i, p, q, sums[s]); });
       });
       auto values = field.block_values(b);
-      if (zb) {
-        const int n = lattice.block_cells(), spc = lattice.samples_per_cell();
+      const int n = lattice.block_cells(), spc = lattice.samples_per_cell();
+      for (int s = 0; s < spc; ++s) {
+        const Vec3f o = lattice.sample_offset(s);
+        const float off[3] = {o.x, o.y, o.z};
         for (int z = 0; z < n; ++z)
           for (int y = 0; y < n; ++y)
-            for (int x = 0; x < n; ++x)
-              for (int s = 0; s < spc; ++s) {
-                const std::size_t k = std::size_t(((z * n + y) * n + x) * spc + s);
-                if (!(sum[k] > 0)) {
-                  values[k] = background;
-                  continue;
-                }
-                const Vec3f q = lattice.sample_position({origin.x + x, origin.y + y, origin.z + z}, s);
-                values[k] = std::min(length(q - weighted[k] / sum[k]) - iso, background);
-              }
-      } else {
-        for (int k = 0; k < kBlockSamples; ++k) values[std::size_t(k)] = iso - sum[std::size_t(k)];
+            for (int x = 0; x < n; ++x) {
+              const std::size_t j = std::size_t(((z * n + y) * n + x) * spc + s);
+              const Vec3f q = kernel_sample_point({origin.x + x, origin.y + y, origin.z + z}, off, lattice.cell_size);
+              values[j] = kernel_value(k, sums[j], q, in.iso, background);
+            }
       }
     }
   });

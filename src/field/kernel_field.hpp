@@ -30,6 +30,10 @@ struct KernelFieldInput {
 /// The support of the kernels: R, or R·max σ̃₁ for anisotropic ones — band_blocks(…, support)
 /// lists every block where the field can differ from its background.
 float kernel_support(const KernelFieldInput& in);
+/// The field's value in unallocated space: iso, or R − r̄ for zhu-bridson.
+float kernel_background(const KernelFieldInput& in);
+/// The per-particle view kernel_impl.hpp reads (pointers into `in`).
+KernelParticles kernel_particles(const KernelFieldInput& in);
 
 /// The field over the blocks `block_keys`:
 ///   metaball:    iso − Σ W_blinn(x − x_i, R)

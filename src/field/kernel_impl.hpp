@@ -5,7 +5,10 @@
 
 #include <cmath>
 
+#include "field/distance_field_impl.hpp"
 #include "field/eigen_sym3_impl.hpp"
+#include "grid/hash_grid_impl.hpp"
+#include "meniscus/params.hpp"
 #include "meniscus/vec.hpp"
 
 namespace meniscus {
@@ -122,6 +125,86 @@ MENISCUS_HD inline float anisotropic_kernel(const Ellipsoid& e, Vec3f r, float h
   if (s2 >= 1.0f) return 0.0f;
   const float t = 1.0f - s2;
   return 1.5666814f * e.det / (h * h * h) * t * t * t;
+}
+
+// --- the kernel-sum field, per sample (kernel_field.cpp scatters, the CUDA backend gathers) ---------
+
+/// The kernel centres' data a kernel field reads, per sorted particle (host or device pointers).
+struct KernelParticles {
+  FieldMethod method = FieldMethod::metaball;
+  float radius = 0;                      ///< support R (anisotropic: the bulk support h)
+  const float* volumes = nullptr;        ///< m/ρ (sph, anisotropic); null: uniform_volume
+  float uniform_volume = 1;
+  const Ellipsoid* ellipsoids = nullptr; ///< anisotropic only
+};
+
+/// A sample's running sums: Σ (volume ×) kernel, and for zhu-bridson Σ k_i x_i.
+struct KernelSum {
+  float sum = 0;
+  Vec3f weighted{0, 0, 0};
+};
+
+/// How far particle i reaches: R, or R·σ̃₁ for an anisotropic kernel.
+MENISCUS_HD inline float kernel_reach(const KernelParticles& k, uint32_t i) {
+  return k.method == FieldMethod::anisotropic ? k.radius * k.ellipsoids[i].max_axis : k.radius;
+}
+
+/// Adds particle i (at p) to the sums of the sample at q.
+MENISCUS_HD inline void kernel_add(const KernelParticles& k, uint32_t i, Vec3f p, Vec3f q, KernelSum& s) {
+  const float v = k.volumes != nullptr ? k.volumes[i] : k.uniform_volume;
+  switch (k.method) {
+    case FieldMethod::metaball: s.sum += metaball_kernel(length2(q - p), k.radius); break;
+    case FieldMethod::sph: s.sum += v * poly6_kernel(length2(q - p), k.radius); break;
+    case FieldMethod::zhu_bridson: {
+      const float w = zhu_bridson_weight(length2(q - p), k.radius);
+      s.sum += w;
+      s.weighted += p * w;
+      break;
+    }
+    case FieldMethod::anisotropic: s.sum += v * anisotropic_kernel(k.ellipsoids[i], q - p, k.radius); break;
+    case FieldMethod::distance: break;
+  }
+}
+
+/// The field's value at the sample q from its sums (kernel_field.hpp): iso − Σ, or for zhu-bridson
+/// min(|q − x̄| − r̄, background) with r̄ = iso (background where no particle reaches q).
+MENISCUS_HD inline float kernel_value(const KernelParticles& k, const KernelSum& s, Vec3f q, float iso, float background) {
+  if (k.method != FieldMethod::zhu_bridson) return iso - s.sum;
+  if (!(s.sum > 0)) return background;
+  const float d = length(q - s.weighted / s.sum) - iso;
+  return d < background ? d : background;
+}
+
+/// The position of sample (cell, offset) on a lattice of spacing a, as the scatter computes it.
+MENISCUS_HD inline Vec3f kernel_sample_point(Vec3i cell, const float (&off)[3], float a) {
+  return Vec3f{(float(cell.x) + off[0]) * a, (float(cell.y) + off[1]) * a, (float(cell.z) + off[2]) * a};
+}
+
+/// The field at one sample by gathering: the particles of the hash cells touching the box of the
+/// sample's block (cells [block_origin, block_origin + n)) grown by `support`, in the scatter's
+/// order, each added where its scatter would reach the sample — the same terms in the same order,
+/// so the same float sums as kernel_field()'s scatter.
+template <class Grid>
+MENISCUS_HD float kernel_field_sample(const Grid& g, const KernelParticles& k, float support, float iso,
+                                      float background, Vec3i block_origin, int n, float a, Vec3i cell,
+                                      const float (&off)[3]) {
+  const Vec3f box_lo = Vec3f{float(block_origin.x), float(block_origin.y), float(block_origin.z)} * a;
+  const Vec3f box_hi = box_lo + Vec3f{1, 1, 1} * (a * float(n));
+  const Vec3i clo = grid_cell_of(box_lo - Vec3f{support, support, support}, g.cell_size());
+  const Vec3i chi = grid_cell_of(box_hi + Vec3f{support, support, support}, g.cell_size());
+  const float inv_a = 1.0f / a;
+  const Vec3f q = kernel_sample_point(cell, off, a);
+  KernelSum s;
+  for (int32_t cz = clo.z; cz <= chi.z; ++cz)
+    for (int32_t cy = clo.y; cy <= chi.y; ++cy)
+      for (int32_t cx = clo.x; cx <= chi.x; ++cx) {
+        const auto range = g.cell_range(Vec3i{cx, cy, cz});
+        for (uint32_t i = range.first; i < range.second; ++i) {
+          const Vec3f p = g.point(i);
+          if (sample_in_reach(p, kernel_reach(k, i), inv_a, off, cell)) kernel_add(k, i, p, q, s);
+        }
+      }
+  return kernel_value(k, s, q, iso, background);
 }
 
 }  // namespace meniscus

@@ -1,7 +1,7 @@
 // meniscus — small interior void removal.
 #include "mesh/voids.hpp"
 
-#include "meniscus/quality.hpp"
+#include "mesh/ray_parity_impl.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -181,40 +181,11 @@ std::size_t remove_unsupported_blobs(TriangleMesh& mesh, const HashGrid& particl
   }
 
   std::vector<uint8_t> empty(roots.size(), 0);
-  const auto points = particles.sorted_points();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, roots.size(), 16), [&](const auto& r) {
-    TriangleMesh part;
-    std::vector<Vec3f> inside_box;
-    for (std::size_t k = r.begin(); k != r.end(); ++k) {
-      if (c.volume[roots[k]] <= min_volume) {
-        empty[k] = 1;
-        continue;
-      }
-      // The component as a small mesh of its own (vertex indices renumbered).
-      part.vertices.clear();
-      part.triangles.clear();
-      std::vector<std::pair<uint32_t, uint32_t>> local;  // (global, local), a few dozen entries
-      auto local_index = [&](uint32_t g) {
-        for (const auto& [gv, lv] : local)
-          if (gv == g) return lv;
-        local.emplace_back(g, uint32_t(part.vertices.size()));
-        part.vertices.push_back(mesh.vertices[g]);
-        return local.back().second;
-      };
-      for (uint32_t j = start[k]; j < start[k + 1]; ++j) {
-        const Triangle& t = mesh.triangles[triangles[j]];
-        part.triangles.push_back({local_index(t[0]), local_index(t[1]), local_index(t[2])});
-      }
-      Vec3f lo = part.vertices[0], hi = lo;
-      for (const Vec3f& x : part.vertices) lo = min(lo, x), hi = max(hi, x);
-      inside_box.clear();
-      particles.for_each_in_cells_of_box(lo, hi, [&](uint32_t i) {
-        const Vec3f p = points[i];
-        if (p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z)
-          inside_box.push_back(p);
-      });
-      empty[k] = inside_box.empty() || points_outside(part, inside_box) == inside_box.size();
-    }
+    for (std::size_t k = r.begin(); k != r.end(); ++k)
+      empty[k] = c.volume[roots[k]] <= min_volume ||
+                 !encloses_a_point(particles, mesh.triangles.data()->data(), triangles.data() + start[k],
+                                   start[k + 1] - start[k], mesh.vertices.data());
   });
   std::vector<uint8_t> drop(nv, 0);
   std::size_t removed = 0;

@@ -6,6 +6,7 @@
 
 #include "grid/hash_grid_impl.hpp"
 #include "field/eigen_sym3_impl.hpp"
+#include "field/kernel_impl.hpp"
 #include "meniscus/vec.hpp"
 
 namespace meniscus {
@@ -135,6 +136,111 @@ MENISCUS_HD inline Vec3f project_to_ellipsoid_shell(Vec3f x, Vec3f c, const SymM
     m = length(a * d);
   }
   return c + d * (target / m);
+}
+
+/// The result of a metric-nearest query: index into the grid's sorted points (kNotFound: none).
+struct MetricNearest {
+  uint32_t index = kNotFound;  ///< sorted particle index
+  float distance = INFINITY;   ///< |A(x − P)|
+};
+
+/// The particle nearest to x in its own metric, argmin_i |A_i(x − P_i)| (ties: the lower sorted
+/// index). Exact: |x − P| ≤ σ̃₁(P)·|A_P(x − P)| ≤ max_axis·|A_P(x − P)|, so a particle with metric
+/// distance ≤ m lies within max_axis·m of x. `ellipsoids` per sorted point.
+template <class Grid>
+MENISCUS_HD MetricNearest grid_nearest_in_metric(const Grid& g, const Ellipsoid* ellipsoids, Vec3f x, float r_outer,
+                                                 float max_axis) {
+  MetricNearest best;
+  auto scan = [&](float radius) {
+    grid_for_each_within(g, x, radius, [&](uint32_t i, float) {
+      const float m = metric_distance(ellipsoids[i].metric, x, g.point(i));
+      if (m < best.distance || (m == best.distance && i < best.index)) best = MetricNearest{i, m};
+    });
+  };
+  scan(max_axis * r_outer * 1.0001f);
+  if (best.index != kNotFound && best.distance <= r_outer) return best;
+  const NearestPoint e = grid_nearest(g, x);
+  if (e.index == kNotFound) return best;
+  const float m = metric_distance(ellipsoids[e.index].metric, x, g.point(e.index));
+  best = MetricNearest{};
+  scan(max_axis * m * 1.0001f + 1e-6f * r_outer);
+  return best;
+}
+
+/// The projection of one vertex for ellipsoid constraints, shared by both backends: repeatedly
+/// project onto the shell of the metric-nearest particle (`nearest(y)` → MetricNearest: the
+/// CPU's EllipsoidCache list or the exact search), and where the shells of two particles undo
+/// each other, search rays from the first particle for a feasible point (`exact(y)`: the exact
+/// metric-nearest). `last_distance` receives the metric distance of the returned point's last
+/// query (−1 when unknown). `points`, `ellipsoids`: per sorted particle.
+template <class NearestFn, class ExactFn>
+MENISCUS_HD Vec3f project_ellipsoid_with(Vec3f x, float r_inner, float r_outer, const Vec3f* points,
+                                         const Ellipsoid* ellipsoids, NearestFn&& nearest, ExactFn&& exact,
+                                         float* last_distance) {
+  const float lo = r_inner * (1.0f - 2e-6f), hi = r_outer * (1.0f + 2e-6f);
+  const float target_in = r_inner * (1.0f + 1e-6f), target_out = r_outer * (1.0f - 1e-6f);
+  uint32_t first = kNotFound;
+  *last_distance = -1;
+  for (int round = 0; round < 4; ++round) {
+    const MetricNearest n = nearest(x);
+    *last_distance = n.index == kNotFound ? -1.0f : n.distance;
+    if (n.index == kNotFound) return x;
+    if (n.distance >= lo && n.distance <= hi) return x;
+    if (first == kNotFound) first = n.index;
+    x = project_to_ellipsoid_shell(x, points[n.index], ellipsoids[n.index].metric, target_in, target_out);
+  }
+  const MetricNearest n = nearest(x);
+  *last_distance = n.distance;
+  if (n.distance >= lo && n.distance <= hi) return x;
+  *last_distance = -1;  // whatever the ray search returns is not x at a known distance
+  // Projections against different particles undo each other (a vertex squeezed between the
+  // inner ellipsoid of one particle and the outer one of another): search rays from the first
+  // particle, from its outer shell inwards, for a point outside every inner ellipsoid — on such a
+  // ray the first particle measures ≤ r_outer, so the constraint holds. The ray through x first,
+  // then the directions around it, nearest first.
+  const Vec3f p = points[first];
+  const SymMat3& a = ellipsoids[first].metric;
+  const Vec3f u = x == p ? Vec3f{0, 0, 1} : normalized(x - p);
+  constexpr int kSteps = 12;
+  auto search_ray = [&](Vec3f dir, Vec3f* out) {
+    const float mu = length(a * dir);
+    for (int k = 0; k <= kSteps; ++k) {
+      const float t = target_out - (target_out - target_in) * float(k) / kSteps;
+      const Vec3f y = p + dir * (t / mu);
+      const MetricNearest m = exact(y);
+      if (m.distance >= lo && m.distance <= hi) {
+        *out = y;
+        return true;
+      }
+    }
+    return false;
+  };
+  Vec3f y;
+  if (search_ray(u, &y)) return y;
+  Vec3f best_y = x;
+  float best_dot = -2;
+  const float weights[4] = {0.25f, 0.5f, 1.0f, 2.0f};
+  for (float w : weights)
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          if (dx == 0 && dy == 0 && dz == 0) continue;
+          const Vec3f dir = normalized(u + normalized(Vec3f{float(dx), float(dy), float(dz)}) * w);
+          if (length2(dir) == 0 || dot(dir, u) <= best_dot) continue;
+          if (search_ray(dir, &y)) best_y = y, best_dot = dot(dir, u);
+        }
+  if (best_dot > -2) return best_y;
+  return x;  // best effort
+}
+
+/// project_ellipsoid_with against the exact metric-nearest particle of the grid (the CUDA
+/// backend's projection; the CPU gets the same particle from its EllipsoidCache).
+template <class Grid>
+MENISCUS_HD Vec3f project_vertex_in_metric(const Grid& g, const Ellipsoid* ellipsoids, Vec3f x, float r_inner,
+                                           float r_outer, float max_axis) {
+  float last = 0;
+  auto exact = [&](Vec3f y) { return grid_nearest_in_metric(g, ellipsoids, y, r_outer, max_axis); };
+  return project_ellipsoid_with(x, r_inner, r_outer, g.points(), ellipsoids, exact, exact, &last);
 }
 
 }  // namespace meniscus

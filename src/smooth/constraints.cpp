@@ -128,94 +128,24 @@ Vec3f NeighbourCache::project(const ShellConstraint& c, uint32_t i, Vec3f x, Vec
 }
 
 MetricNearest nearest_in_metric(const EllipsoidConstraint& c, Vec3f x) {
-  const auto points = c.particles->sorted_points();
-  MetricNearest best;
-  auto scan = [&](float radius) {
-    c.particles->for_each_within(x, radius, [&](uint32_t i, float) {
-      const float m = metric_distance(c.ellipsoids[i].metric, x, points[i]);
-      if (m < best.distance || (m == best.distance && i < best.index)) best = {i, m};
-    });
-  };
-  // |x − P| ≤ σ̃₁(P)·|A_P(x − P)| ≤ max_axis·|A_P(x − P)|: a particle with metric distance ≤ m
-  // lies within max_axis·m of x.
-  scan(c.max_axis * c.r_outer * 1.0001f);
-  if (best.index != kNotFound && best.distance <= c.r_outer) return best;
-  const HashGrid::Nearest e = c.particles->nearest(x);
-  if (e.index == kNotFound) return best;
-  const float m = metric_distance(c.ellipsoids[e.index].metric, x, points[e.index]);
-  best = {};
-  scan(c.max_axis * m * 1.0001f + 1e-6f * c.r_outer);
-  return best;
+  return grid_nearest_in_metric(*c.particles, c.ellipsoids.data(), x, c.r_outer, c.max_axis);
 }
 
 namespace {
 
-/// project_vertex for ellipsoid constraints with the metric-nearest particle from `nearest(y)`
-/// (the exact search or a vertex's EllipsoidCache list); `last_distance` receives the metric
-/// distance of the last query (−1 when none answered).
+/// project_ellipsoid_with of constraint_impl.hpp for `c`, the metric-nearest particle from
+/// `nearest(y)` (the exact search or a vertex's EllipsoidCache list).
 template <class NearestFn>
 Vec3f project_ellipsoid_with(const EllipsoidConstraint& c, Vec3f x, NearestFn&& nearest, float* last_distance) {
-  const auto points = c.particles->sorted_points();
-  const float lo = c.r_inner * (1.0f - 2e-6f), hi = c.r_outer * (1.0f + 2e-6f);
-  const float target_in = c.r_inner * (1.0f + 1e-6f), target_out = c.r_outer * (1.0f - 1e-6f);
-  uint32_t first = kNotFound;
-  *last_distance = -1;
-  for (int round = 0; round < 4; ++round) {
-    const MetricNearest n = nearest(x);
-    *last_distance = n.index == kNotFound ? -1.0f : n.distance;
-    if (n.index == kNotFound) return x;
-    if (n.distance >= lo && n.distance <= hi) return x;
-    if (first == kNotFound) first = n.index;
-    x = project_to_ellipsoid_shell(x, points[n.index], c.ellipsoids[n.index].metric, target_in, target_out);
-  }
-  const MetricNearest n = nearest(x);
-  *last_distance = n.distance;
-  if (n.distance >= lo && n.distance <= hi) return x;
-  *last_distance = -1;  // whatever the ray search returns is not x at a known distance
-  // Projections against different particles undo each other (a vertex squeezed between the
-  // inner ellipsoid of one particle and the outer one of another): search rays from the first
-  // particle, from its outer shell inwards, for a point outside every inner ellipsoid — on such a
-  // ray the first particle measures ≤ r_outer, so the constraint holds. The ray through x first,
-  // then the directions around it, nearest first.
-  const Vec3f p = points[first];
-  const SymMat3& a = c.ellipsoids[first].metric;
-  const Vec3f u = x == p ? Vec3f{0, 0, 1} : normalized(x - p);
-  constexpr int kSteps = 12;
-  auto search_ray = [&](Vec3f dir, Vec3f* out) {
-    const float mu = length(a * dir);
-    for (int k = 0; k <= kSteps; ++k) {
-      const float t = target_out - (target_out - target_in) * float(k) / kSteps;
-      const Vec3f y = p + dir * (t / mu);
-      const MetricNearest m = nearest_in_metric(c, y);
-      if (m.distance >= lo && m.distance <= hi) {
-        *out = y;
-        return true;
-      }
-    }
-    return false;
-  };
-  Vec3f y;
-  if (search_ray(u, &y)) return y;
-  Vec3f best_y = x;
-  float best_dot = -2;
-  for (float w : {0.25f, 0.5f, 1.0f, 2.0f})
-    for (int dz = -1; dz <= 1; ++dz)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          if (dx == 0 && dy == 0 && dz == 0) continue;
-          const Vec3f dir = normalized(u + normalized(Vec3f{float(dx), float(dy), float(dz)}) * w);
-          if (length2(dir) == 0 || dot(dir, u) <= best_dot) continue;
-          if (search_ray(dir, &y)) best_y = y, best_dot = dot(dir, u);
-        }
-  if (best_dot > -2) return best_y;
-  return x;  // best effort
+  return project_ellipsoid_with(
+      x, c.r_inner, c.r_outer, c.particles->points(), c.ellipsoids.data(), nearest,
+      [&](Vec3f y) { return nearest_in_metric(c, y); }, last_distance);
 }
 
 }  // namespace
 
 Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x) {
-  float last = 0;
-  return project_ellipsoid_with(c, x, [&](Vec3f y) { return nearest_in_metric(c, y); }, &last);
+  return project_vertex_in_metric(*c.particles, c.ellipsoids.data(), x, c.r_inner, c.r_outer, c.max_axis);
 }
 
 void EllipsoidCache::refresh(const EllipsoidConstraint& c, uint32_t i, Vec3f y) {

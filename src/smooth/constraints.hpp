@@ -8,7 +8,7 @@
 #include <span>
 #include <vector>
 
-#include "field/kernel_impl.hpp"
+#include "smooth/constraint_impl.hpp"
 #include "grid/hash_grid.hpp"
 #include "meniscus/vec.hpp"
 
@@ -125,10 +125,6 @@ struct EllipsoidConstraint {
   float max_axis = 1;                     ///< max σ̃₁ over the particles (bounds the search)
 };
 
-struct MetricNearest {
-  uint32_t index = kNotFound;  ///< sorted particle index
-  float distance = INFINITY;   ///< |A(x − P)|
-};
 /// The particle nearest to x in its own metric (exact: every particle whose metric distance
 /// can be smaller is within max_axis · distance of x in Euclidean terms).
 MetricNearest nearest_in_metric(const EllipsoidConstraint& c, Vec3f x);

@@ -13,10 +13,15 @@ cmake --build "$BUILD" -j "$JOBS"
 "$BUILD/meniscus" info
 
 echo "== CUDA tests (backend dispatch, shared code, device stages, parity) =="
-"$BUILD/tests/meniscus_tests" --gtest_filter='SumTree*:MarchingTables*:Backend*:Cuda*' --gtest_color=no
+"$BUILD/tests/meniscus_tests" --gtest_filter='SumTree*:MarchingTables*:Backend*:Cuda*:KernelField*' --gtest_color=no
 
 echo "== GPU benchmark: jittered blocks, per-stage device times (CUDA events) =="
 "$BUILD/meniscus_bench_gpu" --backend cuda --counts "${COUNTS:-100000,1000000,10000000}"
+
+echo "== the field methods of issue #7 on the GPU (1M particles; anisotropic: centres, ellipsoids, ellipsoid constraints) =="
+for f in metaball sph zhu-bridson anisotropic; do
+  "$BUILD/meniscus_bench_gpu" --backend cuda --field "$f" --counts "${FIELD_COUNTS:-1000000}"
+done
 
 echo "== the same scenes on the CPU backend, for comparison (100k, 1M) =="
 "$BUILD/meniscus_bench_gpu" --backend cpu --counts "${CPU_COUNTS:-100000,1000000}"

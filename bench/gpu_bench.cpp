@@ -19,7 +19,7 @@
 int main(int argc, char** argv) {
   using namespace meniscus;
   std::vector<std::size_t> counts{100000, 1000000, 10000000};
-  std::string backend = "cuda", scene = "block";
+  std::string backend = "cuda", scene = "block", field = "distance";
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i], v = argv[i + 1];
     if (a == "--counts") {
@@ -30,8 +30,12 @@ int main(int argc, char** argv) {
       backend = v;
     } else if (a == "--scene") {
       scene = v;
+    } else if (a == "--field") {
+      field = v;
     } else {
-      fmt::print(stderr, "usage: meniscus_bench_gpu [--counts 100000,1000000] [--backend cuda|cpu] [--scene block]\n");
+      fmt::print(stderr,
+                 "usage: meniscus_bench_gpu [--counts 100000,1000000] [--backend cuda|cpu] [--scene block] "
+                 "[--field distance|metaball|sph|zhu-bridson|anisotropic]\n");
       return 2;
     }
   }
@@ -51,11 +55,12 @@ int main(int argc, char** argv) {
     Params p;
     p.spacing = s.spacing;
     p.backend = parse_backend(backend);
+    p.field = parse_field(field);
     try {
       const Result r = reconstruct(s.particles, p);
       double transfers = 0;
-      fmt::print("\n{} {} particles on {}: {} vertices, {} triangles, {} field blocks\n", scene,
-                 s.particles.size(), r.stats.backend, r.stats.vertices, r.stats.triangles, r.stats.field_blocks);
+      fmt::print("\n{} ({} field) {} particles on {}: {} vertices, {} triangles, {} field blocks\n", scene,
+                 field, s.particles.size(), r.stats.backend, r.stats.vertices, r.stats.triangles, r.stats.field_blocks);
       for (const StageTime& t : r.stats.stages) {
         fmt::print("  {:<12} {:9.2f} ms\n", t.name, t.seconds * 1e3);
         if (t.name == "upload" || t.name == "download") transfers += t.seconds;

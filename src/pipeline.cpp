@@ -30,6 +30,7 @@
 #include "smooth/smooth.hpp"
 #include "transfer/attribute_transfer.hpp"
 #include "transfer/normals.hpp"
+#include "transfer/velocity_weight_impl.hpp"
 
 namespace meniscus {
 
@@ -144,24 +145,26 @@ std::vector<T> to_sorted_order(const HashGrid& grid, const std::vector<T>& origi
   return out;
 }
 
-/// Per-vertex damping factors of the velocity weighting: clamp(1 − speed/v_ref, w_min, 1).
+/// The velocity weighting's reference speed when not given: the particles' 95th-percentile speed.
+double velocity_reference(const Attribute& velocity) {
+  std::vector<float> speed(velocity.size());
+  for (std::size_t i = 0; i < speed.size(); ++i)
+    speed[i] = length(Vec3f{velocity.values[3 * i], velocity.values[3 * i + 1], velocity.values[3 * i + 2]});
+  if (speed.empty()) return 0.0;
+  auto q = speed.begin() + std::ptrdiff_t(double(speed.size() - 1) * 0.95);
+  std::nth_element(speed.begin(), q, speed.end());
+  return double(*q);
+}
+
+/// Per-vertex damping factors of the velocity weighting (velocity_weight_impl.hpp).
 std::vector<float> velocity_weights(const Attribute& velocity, const HashGrid& grid, std::span<const Vec3f> vertices,
-                                    Params& p) {
-  if (p.velocity_reference == 0) {
-    std::vector<float> speed(velocity.size());
-    for (std::size_t i = 0; i < speed.size(); ++i)
-      speed[i] = length(Vec3f{velocity.values[3 * i], velocity.values[3 * i + 1], velocity.values[3 * i + 2]});
-    auto q = speed.begin() + std::ptrdiff_t(double(speed.size() - 1) * 0.95);
-    std::nth_element(speed.begin(), q, speed.end());
-    p.velocity_reference = speed.empty() ? 0.0 : double(*q);
-  }
+                                    const Params& p) {
   std::vector<float> w(vertices.size(), 1.0f);
   if (!(p.velocity_reference > 0)) return w;  // nothing moves: smooth everywhere
   const Attribute v = transfer_attribute(velocity, grid, vertices, float(p.transfer_radius));
-  for (std::size_t i = 0; i < w.size(); ++i) {
-    const float speed = length(Vec3f{v.values[3 * i], v.values[3 * i + 1], v.values[3 * i + 2]});
-    w[i] = std::clamp(1.0f - speed / float(p.velocity_reference), float(p.velocity_min_weight), 1.0f);
-  }
+  for (std::size_t i = 0; i < w.size(); ++i)
+    w[i] = velocity_weight(Vec3f{v.values[3 * i], v.values[3 * i + 1], v.values[3 * i + 2]},
+                           float(p.velocity_reference), float(p.velocity_min_weight));
   return w;
 }
 
@@ -283,20 +286,16 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
     stats.warnings.push_back(
         fmt::format("erode {:g} exceeds half a voxel ({:g}); large erosion can self-intersect", p.erode, h / 2));
 
+  // The velocity weighting's reference speed, when not given (both backends use it).
+  if (p.velocity_weighted && p.velocity_reference == 0) p.velocity_reference = velocity_reference(*velocity);
+  result.params = p;
+  // SPH volumes per original particle for the sph and anisotropic fields (empty: uniform d³).
+  const std::vector<float> volumes = p.field == FieldMethod::sph || p.field == FieldMethod::anisotropic
+                                         ? particle_volumes(particles, d)
+                                         : std::vector<float>{};
+
   // Backend: cuda when asked (refused without a device) or, for auto, when a device is there.
-  // The kernel fields, particle smoothing and velocity weighting (issue #7) run on the CPU only.
-  std::string cpu_only;
-  if (p.field != FieldMethod::distance)
-    cpu_only = fmt::format("--field {}", to_string(p.field));
-  else if (p.smooth_particles > 0)
-    cpu_only = "--smooth-particles";
-  else if (p.velocity_weighted)
-    cpu_only = "--velocity-weighted";
-  if (p.backend == Backend::cuda && !cpu_only.empty())
-    throw InvalidParameter(fmt::format("--backend cuda: {} runs on the CPU backend only; use --backend cpu or auto", cpu_only));
-  if (p.backend != Backend::cpu && !cpu_only.empty() && cuda_built())
-    stats.warnings.push_back(fmt::format("backend auto: {} runs on the CPU backend only; running on the CPU", cpu_only));
-  if (p.backend != Backend::cpu && cpu_only.empty()) {
+  if (p.backend != Backend::cpu) {
     std::string why;
     const bool have_device = !cuda_devices(&why).empty();
     if (p.backend == Backend::cuda && !have_device)
@@ -304,7 +303,7 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
     if (have_device) {
       const std::size_t stages_before = stats.stages.size();
       try {
-        cuda::reconstruct(particles, p, stats, result.mesh, progress);
+        cuda::reconstruct(particles, p, volumes, velocity, stats, result.mesh, progress);
         stats.backend = "cuda";
         stats.peak_memory_bytes = peak_rss_bytes();
         return result;
@@ -365,10 +364,8 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
     in.kernel_radius = float(p.kernel_radius);
     in.iso = float(p.iso);
     in.uniform_volume = float(d * d * d);
-    const std::vector<float> volumes = p.field == FieldMethod::sph || anisotropic
-                                           ? to_sorted_order(grid, particle_volumes(particles, d))
-                                           : std::vector<float>{};
-    in.volumes = volumes;
+    const std::vector<float> sorted_volumes = to_sorted_order(grid, volumes);
+    in.volumes = sorted_volumes;
     in.ellipsoids = sorted_ellipsoids;
     const SparseField field = timer.run("field", [&] {
       const float band = kernel_support(in) + float(h);

@@ -13,7 +13,8 @@ std::vector<CudaDeviceInfo> cuda_devices(std::string* reason) {
 }
 
 namespace cuda {
-void reconstruct(const ParticleSet&, const Params&, Stats&, TriangleMesh&, const ProgressFn&) {
+void reconstruct(const ParticleSet&, const Params&, const std::vector<float>&, const Attribute*, Stats&, TriangleMesh&,
+                 const ProgressFn&) {
   throw ResourceError("the CUDA backend is not built in (built without CUDA; configure with -DMENISCUS_CUDA=ON)");
 }
 }  // namespace cuda

@@ -1,7 +1,9 @@
 // meniscus — the sparse distance field on the device (Williams 2008 §3; Edespong 2010 §3.2): the
 // band's blocks from the occupied hash cells (count, scan, write, sort, unique), then one thread
 // block per field block and one thread per sample gathering the particles of the nearby hash cells
-// (no atomics). The sample/particle arithmetic is distance_field_impl.hpp, as on the CPU.
+// (no atomics). The sample/particle arithmetic is distance_field_impl.hpp, as on the CPU. The
+// kernel-sum fields (--field metaball|sph|zhu-bridson|anisotropic) the same way, each sample
+// gathering kernel_field_sample (kernel_impl.hpp), which sums the CPU scatter's terms in its order.
 #include "cuda/primitives.hpp"
 #include "cuda/stages_cuda.hpp"
 #include "field/distance_field_impl.hpp"
@@ -76,6 +78,27 @@ __global__ void distance_kernel(GridView grid, const uint64_t* block_keys, int n
   }
 }
 
+/// One thread block per field block; thread t handles samples t, t + blockDim, ….
+__global__ void kernel_field_kernel(GridView grid, KernelParticles k, const uint64_t* block_keys, int n, int spc,
+                                    float a, float support, float iso, float background, float* values) {
+  const uint64_t b = blockIdx.x;
+  const Vec3i bc = unpack_coords(block_keys[b]);
+  const Vec3i origin{bc.x * n, bc.y * n, bc.z * n};
+  for (int idx = threadIdx.x; idx < kBlockSamples; idx += blockDim.x) {
+    const int cell = idx / spc, s = idx % spc;
+    const Vec3i g{origin.x + cell % n, origin.y + (cell / n) % n, origin.z + cell / (n * n)};
+    const float off[3] = {c_sample_offsets[s][0], c_sample_offsets[s][1], c_sample_offsets[s][2]};
+    values[b * kBlockSamples + uint64_t(idx)] = kernel_field_sample(grid, k, support, iso, background, origin, n, a, g, off);
+  }
+}
+
+void upload_sample_offsets(const SampleLattice& lattice) {
+  float offsets[8][3] = {};
+  for (int s = 0; s < lattice.samples_per_cell(); ++s)
+    for (int a = 0; a < 3; ++a) offsets[s][a] = lattice.sample_offset(s)[a];
+  MENISCUS_CUDA_CHECK(cudaMemcpyToSymbol(c_sample_offsets, offsets, sizeof(offsets)));
+}
+
 }  // namespace
 
 DeviceBuffer<uint64_t> band_blocks(const DeviceGrid& grid, const SampleLattice& lattice, float band,
@@ -98,10 +121,7 @@ DeviceBuffer<uint64_t> band_blocks(const DeviceGrid& grid, const SampleLattice& 
 
 DeviceField distance_field(const DeviceGrid& grid, const SampleLattice& lattice, float band,
                            DeviceBuffer<uint64_t> keys, std::size_t block_count) {
-  float offsets[8][3] = {};
-  for (int s = 0; s < lattice.samples_per_cell(); ++s)
-    for (int a = 0; a < 3; ++a) offsets[s][a] = lattice.sample_offset(s)[a];
-  MENISCUS_CUDA_CHECK(cudaMemcpyToSymbol(c_sample_offsets, offsets, sizeof(offsets)));
+  upload_sample_offsets(lattice);
   DeviceField f;
   f.lattice = lattice;
   f.background = band;
@@ -111,6 +131,24 @@ DeviceField distance_field(const DeviceGrid& grid, const SampleLattice& lattice,
     distance_kernel<<<unsigned(block_count), 128>>>(grid.view(), keys.data(), lattice.block_cells(),
                                                     lattice.samples_per_cell(), lattice.cell_size, band,
                                                     f.values.data());
+    MENISCUS_CUDA_CHECK_LAUNCH();
+  }
+  f.keys = std::move(keys);
+  return f;
+}
+
+DeviceField kernel_field(const DeviceGrid& grid, const SampleLattice& lattice, const KernelParticles& k, float support,
+                         float iso, float background, DeviceBuffer<uint64_t> keys, std::size_t block_count) {
+  upload_sample_offsets(lattice);
+  DeviceField f;
+  f.lattice = lattice;
+  f.background = background;
+  f.blocks = uint32_t(block_count);
+  f.values.resize(block_count * kBlockSamples);
+  if (block_count > 0) {
+    kernel_field_kernel<<<unsigned(block_count), 128>>>(grid.view(), k, keys.data(), lattice.block_cells(),
+                                                        lattice.samples_per_cell(), lattice.cell_size, support, iso,
+                                                        background, f.values.data());
     MENISCUS_CUDA_CHECK_LAUNCH();
   }
   f.keys = std::move(keys);

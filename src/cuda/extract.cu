@@ -6,6 +6,7 @@
 // the CPU), positions from the field. Also the small-void removal of mesh/voids.cpp.
 #include "cuda/primitives.hpp"
 #include "cuda/stages_cuda.hpp"
+#include "mesh/ray_parity_impl.hpp"
 #include "extract/edge_key.hpp"
 #include "extract/extract.hpp"
 #include "extract/marching_impl.hpp"
@@ -356,38 +357,48 @@ __global__ void compact_kernel(const uint32_t* tris, uint64_t nt, const uint32_t
 
 }  // namespace
 
-std::size_t remove_small_voids(DeviceMesh& mesh, double max_volume) {
+namespace {
+
+/// The components of a device mesh (mesh/voids.cpp's mesh_components): each vertex's root (the
+/// component's smallest vertex), and per root the signed volume and whether it has triangles.
+struct DeviceComponents {
+  DeviceBuffer<uint32_t> root;
+  DeviceBuffer<double> volume;
+  DeviceBuffer<uint8_t> has;
+};
+
+DeviceComponents mesh_components(const DeviceMesh& mesh) {
   const uint64_t nv = mesh.vertex_count, nt = mesh.triangle_count;
-  if (nv == 0 || nt == 0) return 0;
-  DeviceBuffer<uint32_t> parent(nv);
-  init_parent_kernel<<<blocks_for(nv), 256>>>(parent.data(), nv);
+  DeviceComponents c;
+  c.root.resize(nv);
+  init_parent_kernel<<<blocks_for(nv), 256>>>(c.root.data(), nv);
   MENISCUS_CUDA_CHECK_LAUNCH();
   DeviceBuffer<int> changed(1);
   for (;;) {
     changed.zero();
-    hook_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, parent.data(), changed.data());
+    hook_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, c.root.data(), changed.data());
     MENISCUS_CUDA_CHECK_LAUNCH();
-    compress_kernel<<<blocks_for(nv), 256>>>(parent.data(), nv);
+    compress_kernel<<<blocks_for(nv), 256>>>(c.root.data(), nv);
     MENISCUS_CUDA_CHECK_LAUNCH();
     if (changed.get(0) == 0) break;
   }
-  DeviceBuffer<double> volume(nv);
-  DeviceBuffer<uint8_t> has(nv), drop(nv);
-  volume.zero();
-  has.zero();
-  volume_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, mesh.vertices.data(), parent.data(), volume.data(),
-                                         has.data());
+  c.volume.resize(nv);
+  c.has.resize(nv);
+  c.volume.zero();
+  c.has.zero();
+  volume_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, mesh.vertices.data(), c.root.data(),
+                                         c.volume.data(), c.has.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
-  DeviceBuffer<unsigned long long> removed(1);
-  removed.zero();
-  drop_kernel<<<blocks_for(nv), 256>>>(parent.data(), volume.data(), has.data(), nv, max_volume, drop.data(),
-                                       removed.data());
-  MENISCUS_CUDA_CHECK_LAUNCH();
-  const std::size_t count = std::size_t(removed.get(0));
-  if (count == 0) return 0;
+  return c;
+}
+
+/// Drops the triangles of the components whose root has drop[root] set, then the vertices no
+/// triangle uses (order otherwise preserved), as the CPU's drop_components.
+void drop_components(DeviceMesh& mesh, const DeviceBuffer<uint32_t>& root, const DeviceBuffer<uint8_t>& drop) {
+  const uint64_t nv = mesh.vertex_count, nt = mesh.triangle_count;
   DeviceBuffer<uint32_t> keep(nt), tri_pos(nt + 1), used(nv), vertex_pos(nv + 1);
   used.zero();
-  keep_flags_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, parent.data(), drop.data(), keep.data(),
+  keep_flags_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, root.data(), drop.data(), keep.data(),
                                              used.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   exclusive_sum(keep.data(), tri_pos.data(), nt);
@@ -403,6 +414,105 @@ std::size_t remove_small_voids(DeviceMesh& mesh, double max_volume) {
   mesh.vertices = std::move(new_x);
   mesh.triangle_count = new_nt;
   mesh.vertex_count = new_nv;
+}
+
+// --- unsupported blobs (kernel fields) ---------------------------------------------------------------
+
+/// Flags the small outward components' roots (volume in (0, max_volume]).
+__global__ void blob_candidate_kernel(const uint32_t* root, const double* volume, const uint8_t* has, uint64_t nv,
+                                      double max_volume, uint32_t* flag) {
+  for (uint64_t v = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; v < nv; v += uint64_t(gridDim.x) * blockDim.x)
+    flag[v] = root[v] == v && has[v] && volume[v] > 0.0 && volume[v] <= max_volume ? 1u : 0u;
+}
+
+/// Counts the triangles of each candidate (slot[root]: the candidate's index, from the flags' scan).
+__global__ void blob_count_kernel(const uint32_t* tris, uint64_t nt, const uint32_t* root, const uint32_t* flag,
+                                  const uint32_t* slot, uint32_t* counts) {
+  for (uint64_t t = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; t < nt; t += uint64_t(gridDim.x) * blockDim.x) {
+    const uint32_t r = root[tris[3 * t]];
+    if (flag[r]) atomicAdd(&counts[slot[r]], 1u);
+  }
+}
+
+/// Buckets the candidates' triangles (any order within a bucket: the blob test does not depend on it).
+__global__ void blob_fill_kernel(const uint32_t* tris, uint64_t nt, const uint32_t* root, const uint32_t* flag,
+                                 const uint32_t* slot, const uint32_t* start, uint32_t* cursor, uint32_t* ids) {
+  for (uint64_t t = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; t < nt; t += uint64_t(gridDim.x) * blockDim.x) {
+    const uint32_t r = root[tris[3 * t]];
+    if (flag[r]) ids[start[slot[r]] + atomicAdd(&cursor[slot[r]], 1u)] = uint32_t(t);
+  }
+}
+
+/// One thread per candidate: dropped when smaller than the inner ball or enclosing no particle.
+__global__ void blob_test_kernel(GridView grid, const uint32_t* tris, const Vec3f* x, const uint32_t* candidates,
+                                 uint32_t count, const uint32_t* start, const uint32_t* ids, const double* volume,
+                                 double min_volume, uint8_t* drop, unsigned long long* removed) {
+  for (uint64_t k = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; k < count; k += uint64_t(gridDim.x) * blockDim.x) {
+    const uint32_t r = candidates[k];
+    const bool empty = volume[r] <= min_volume || !encloses_a_point(grid, tris, ids + start[k], start[k + 1] - start[k], x);
+    if (empty) {
+      drop[r] = 1;
+      atomicAdd(removed, 1ull);
+    }
+  }
+}
+
+__global__ void candidate_list_kernel(const uint32_t* flag, const uint32_t* slot, uint64_t nv, uint32_t* candidates) {
+  for (uint64_t v = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; v < nv; v += uint64_t(gridDim.x) * blockDim.x)
+    if (flag[v]) candidates[slot[v]] = uint32_t(v);
+}
+
+}  // namespace
+
+std::size_t remove_small_voids(DeviceMesh& mesh, double max_volume) {
+  const uint64_t nv = mesh.vertex_count, nt = mesh.triangle_count;
+  if (nv == 0 || nt == 0) return 0;
+  const DeviceComponents c = mesh_components(mesh);
+  DeviceBuffer<uint8_t> drop(nv);
+  DeviceBuffer<unsigned long long> removed(1);
+  removed.zero();
+  drop_kernel<<<blocks_for(nv), 256>>>(c.root.data(), c.volume.data(), c.has.data(), nv, max_volume, drop.data(),
+                                       removed.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  const std::size_t count = std::size_t(removed.get(0));
+  if (count > 0) drop_components(mesh, c.root, drop);
+  return count;
+}
+
+std::size_t remove_unsupported_blobs(DeviceMesh& mesh, const DeviceGrid& grid, double max_volume, double min_volume) {
+  const uint64_t nv = mesh.vertex_count, nt = mesh.triangle_count;
+  if (nv == 0 || nt == 0) return 0;
+  const DeviceComponents c = mesh_components(mesh);
+  DeviceBuffer<uint32_t> flag(nv), slot(nv + 1);
+  blob_candidate_kernel<<<blocks_for(nv), 256>>>(c.root.data(), c.volume.data(), c.has.data(), nv, max_volume,
+                                                 flag.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  exclusive_sum(flag.data(), slot.data(), nv);
+  const uint32_t candidates = slot.get(nv);
+  if (candidates == 0) return 0;
+  DeviceBuffer<uint32_t> list(candidates), counts(candidates), start(std::size_t(candidates) + 1), cursor(candidates);
+  candidate_list_kernel<<<blocks_for(nv), 256>>>(flag.data(), slot.data(), nv, list.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  counts.zero();
+  blob_count_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, c.root.data(), flag.data(), slot.data(),
+                                             counts.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  exclusive_sum(counts.data(), start.data(), candidates);
+  DeviceBuffer<uint32_t> ids(start.get(candidates));
+  cursor.zero();
+  blob_fill_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, c.root.data(), flag.data(), slot.data(),
+                                            start.data(), cursor.data(), ids.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  DeviceBuffer<uint8_t> drop(nv);
+  drop.zero();
+  DeviceBuffer<unsigned long long> removed(1);
+  removed.zero();
+  blob_test_kernel<<<blocks_for(candidates, 64), 64>>>(grid.view(), mesh.triangles.data(), mesh.vertices.data(),
+                                                       list.data(), candidates, start.data(), ids.data(),
+                                                       c.volume.data(), min_volume, drop.data(), removed.data());
+  MENISCUS_CUDA_CHECK_LAUNCH();
+  const std::size_t count = std::size_t(removed.get(0));
+  if (count > 0) drop_components(mesh, c.root, drop);
   return count;
 }
 

@@ -66,47 +66,88 @@ void check_fits(double bytes, const char* what) {
 
 }  // namespace
 
-void reconstruct(const ParticleSet& particles, const Params& p, Stats& stats, TriangleMesh& mesh,
-                 const ProgressFn& progress) {
+void reconstruct(const ParticleSet& particles, const Params& p, const std::vector<float>& volumes,
+                 const Attribute* velocity, Stats& stats, TriangleMesh& mesh, const ProgressFn& progress) {
   MENISCUS_CUDA_CHECK(cudaSetDevice(0));
   const std::size_t n = particles.size();
   if (n >= std::size_t(kNotFound)) throw ResourceError(fmt::format("{} points exceed the 2^32-1 limit", n));
   const float r_outer = float(p.r_outer), r_inner = float(p.r_inner), h = float(p.voxel_size);
   const float cell_size = 2 * r_outer;
+  const double d = p.spacing;
+  const bool anisotropic = p.field == FieldMethod::anisotropic;
+  const bool kernel = p.field != FieldMethod::distance;
 
   // The grid's coordinate range, checked on the host as the CPU grid does (the positions are
   // read here anyway to upload them).
   Vec3f lo = particles.positions[0], hi = lo;
   for (const Vec3f& q : particles.positions) lo = min(lo, q), hi = max(hi, q);
-  const double limit = double(kMaxCoord) * cell_size;
+  // (The grid of the raw particles for Yu & Turk has cells of at least 2d.)
+  const float smallest_cell = p.smooth_particles > 0 || anisotropic ? std::min(cell_size, float(2 * d)) : cell_size;
+  const double limit = double(kMaxCoord) * smallest_cell;
   for (int a = 0; a < 3; ++a)
     if (std::abs(double(lo[a])) >= limit || std::abs(double(hi[a])) >= limit)
       throw ResourceError(fmt::format("points reach {:g} on axis {}, more than {} cells of size {:g} from the origin",
                                       std::max(std::abs(double(lo[a])), std::abs(double(hi[a]))), "xyz"[a], kMaxCoord,
-                                      cell_size));
-  check_fits(double(n) * 64.0, "the particles and their hash grid");
+                                      smallest_cell));
+  // Positions, the hash grid, and for the field methods the centres, ellipsoids (40 B) and volumes.
+  check_fits(double(n) * (64.0 + (kernel ? 2 * 44.0 + 8.0 : 0.0)), "the particles and their hash grid");
 
   EventTimer timer(stats, progress);
   DeviceBuffer<Vec3f> points;
   std::vector<DeviceBuffer<float>> attributes(p.transfer.size());
+  DeviceBuffer<float> device_volumes, device_velocity;
   timer.run("upload", [&] {
     points.upload(particles.positions.data(), n);
     for (std::size_t k = 0; k < p.transfer.size(); ++k) {
       const Attribute* a = particles.find(p.transfer[k]);
       attributes[k].upload(a->values.data(), a->values.size());
     }
+    if (!volumes.empty()) device_volumes.upload(volumes.data(), volumes.size());
+    if (p.velocity_weighted) device_velocity.upload(velocity->values.data(), velocity->values.size());
   });
+
+  // Kernel centres: the particles, Laplacian-smoothed when asked (Yu & Turk §5), and the
+  // anisotropic ellipsoids, both from a grid of the raw particles (as pipeline.cpp).
+  DeviceBuffer<Ellipsoid> ellipsoids;  // original order, then the grid's
+  if (p.smooth_particles > 0 || anisotropic)
+    timer.run("particles", [&] {
+      const float pca_radius = float(2 * p.kernel_radius);
+      const float raw_cell = float(std::max(2 * d, anisotropic ? double(pca_radius) : 0.0));
+      const DeviceGrid raw = build_grid(points, uint32_t(n), raw_cell, grid_cell_of(lo, raw_cell), grid_cell_of(hi, raw_cell));
+      AnisotropyConstants k;
+      k.bulk_variance = yu_turk_bulk_variance(pca_radius);
+      DeviceBuffer<Vec3f> centres;
+      particle_frames(raw, pca_radius, k, float(2 * d), float(p.smooth_particles),
+                      p.smooth_particles > 0 ? &centres : nullptr, anisotropic ? &ellipsoids : nullptr);
+      if (p.smooth_particles > 0) {
+        points = std::move(centres);
+        point_bounds(points, uint32_t(n), &lo, &hi);  // within the particles' bounds up to rounding
+      }
+    });
   const DeviceGrid grid = timer.run("grid", [&] {
-    return build_grid(points, uint32_t(n), cell_size, grid_cell_of(lo, cell_size), grid_cell_of(hi, cell_size));
+    DeviceGrid g = build_grid(points, uint32_t(n), cell_size, grid_cell_of(lo, cell_size), grid_cell_of(hi, cell_size));
+    if (anisotropic) ellipsoids = to_sorted_order(g, ellipsoids);
+    if (!volumes.empty()) device_volumes = to_sorted_order(g, device_volumes);
+    return g;
   });
   points = {};
 
   SampleLattice lattice;
   lattice.kind = p.extract == Extractor::tiles ? SampleLattice::Kind::a15 : SampleLattice::Kind::cubic;
   lattice.cell_size = float(p.extract == Extractor::tiles ? 2 * h : h);
-  const float band = field_band(p);
 
   DeviceMesh dmesh = [&] {
+    KernelParticles k;
+    k.method = p.field;
+    k.radius = float(p.kernel_radius);
+    k.volumes = device_volumes.size() > 0 ? device_volumes.data() : nullptr;
+    k.uniform_volume = float(d * d * d);
+    k.ellipsoids = anisotropic ? ellipsoids.data() : nullptr;
+    // As kernel_support(): R, or R·max σ̃₁.
+    const float support = !kernel ? 0.0f
+                          : anisotropic ? k.radius * std::max(max_ellipsoid_axis(ellipsoids, uint32_t(n)), 1e-3f)
+                                        : k.radius;
+    const float band = kernel ? support + h : field_band(p);
     const DeviceField field = timer.run("field", [&] {
       std::size_t blocks = 0;
       DeviceBuffer<uint64_t> keys = band_blocks(grid, lattice, band, &blocks);
@@ -114,24 +155,44 @@ void reconstruct(const ParticleSet& particles, const Params& p, Stats& stats, Tr
       const double cells = double(kBlockSamples / lattice.samples_per_cell());
       const double bytes = double(blocks) * (kBlockSamples * 4.0 + 8.0 + cells * (1.0 + 2.0 * 16.0));
       if (bytes > p.max_memory_gb * 1e9)
-        throw ResourceError(fmt::format("the distance field would need about {:.1f} GB ({} blocks), more than the "
+        throw ResourceError(fmt::format("the {} field would need about {:.1f} GB ({} blocks), more than the "
                                         "{:.1f} GB allowed; use a larger --voxel-size or raise --max-memory",
-                                        bytes / 1e9, blocks, p.max_memory_gb));
-      check_fits(bytes, "the distance field and the extraction");
-      return distance_field(grid, lattice, band, std::move(keys), blocks);
+                                        to_string(p.field), bytes / 1e9, blocks, p.max_memory_gb));
+      check_fits(bytes, "the field and the extraction");
+      if (!kernel) return distance_field(grid, lattice, band, std::move(keys), blocks);
+      const float iso = float(p.iso);
+      const float background = p.field == FieldMethod::zhu_bridson ? k.radius - iso : iso;  // kernel_background()
+      return kernel_field(grid, lattice, k, support, iso, background, std::move(keys), blocks);
     });
     stats.field_blocks = field.blocks;
-    return timer.run("extract", [&] { return extract_surface(field, r_outer, p.extract); });
+    return timer.run("extract", [&] { return extract_surface(field, kernel ? 0.0f : r_outer, p.extract); });
   }();
   stats.dropped_triangles = 0;
-  const double d = p.spacing;
   if (!p.keep_voids)
     stats.removed_voids = timer.run("voids", [&] { return remove_small_voids(dmesh, 8 * d * d * d); });
+  // As on the CPU: a kernel field's blobs the smoothing cannot hold (mesh/voids.hpp).
+  if (kernel)
+    stats.removed_blobs = timer.run("blobs", [&] {
+      const double inner_ball = 4.0 / 3.0 * 3.14159265358979323846 * p.r_inner * p.r_inner * p.r_inner;
+      return remove_unsupported_blobs(dmesh, grid, 8 * d * d * d, inner_ball);
+    });
   if (p.steps_a + p.steps_b + p.steps_free > 0) timer.run("reorder", [&] { reorder_vertices_spatially(dmesh); });
 
   const DeviceAdjacency adj = timer.run("adjacency", [&] { return build_adjacency(dmesh); });
   timer.run("smooth", [&] {
     SmoothSettings s;
+    DeviceBuffer<float> weights;
+    DeviceBuffer<Ellipsoid> shell_ellipsoids;
+    if (p.velocity_weighted && p.velocity_reference > 0) {
+      const DeviceBuffer<float> v = transfer_attribute(device_velocity, 3, grid, dmesh, float(p.transfer_radius));
+      weights = velocity_weights(v, dmesh.vertex_count, float(p.velocity_reference), float(p.velocity_min_weight));
+      s.vertex_relax = weights.data();
+    }
+    if (anisotropic) {
+      shell_ellipsoids = unit_volume_shells(ellipsoids);
+      s.shells = shell_ellipsoids.data();
+      s.max_axis = max_ellipsoid_axis(shell_ellipsoids, uint32_t(n));
+    }
     s.steps_a = p.steps_a;
     s.steps_b = p.steps_b;
     s.steps_free = p.steps_free;

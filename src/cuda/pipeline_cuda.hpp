@@ -1,6 +1,8 @@
 // meniscus — the CUDA backend's pipeline (DESIGN §1, every stage on the device): one upload of
 // the particles, hash grid → sparse distance field → extraction → weld → void removal →
-// constrained smoothing → erosion → attribute transfer → normals, one download of the mesh.
+// constrained smoothing → erosion → attribute transfer → normals, one download of the mesh; with
+// the field methods of issue #7 (kernel fields, particle smoothing, anisotropic kernels and
+// ellipsoid constraints, velocity weighting) as on the CPU.
 // The per-element math is the CPU's (*_impl.hpp headers with MENISCUS_HD), in the same order,
 // so the two backends agree (README "GPU (CUDA)": parity).
 #pragma once
@@ -10,6 +12,8 @@
 #include "meniscus/particles.hpp"
 #include "meniscus/reconstruct.hpp"
 
+#include <vector>
+
 namespace meniscus::cuda {
 
 /// Runs the stages after parameter resolution on CUDA device 0 with the resolved parameters
@@ -18,7 +22,10 @@ namespace meniscus::cuda {
 /// to `stats`, and fills `mesh`. Throws ResourceError when the job would not fit in device
 /// memory (checked before the large allocations), CudaError (a ResourceError) when a CUDA call
 /// fails, InvalidParameter like the CPU stages. Device memory is released on every path.
-void reconstruct(const ParticleSet& particles, const Params& p, Stats& stats, TriangleMesh& mesh,
-                 const ProgressFn& progress);
+/// `volumes`: the SPH volumes m/ρ per original particle for --field sph|anisotropic (empty:
+/// uniform d³); `velocity`: the particles' velocity attribute for --velocity-weighted (with
+/// p.velocity_reference resolved).
+void reconstruct(const ParticleSet& particles, const Params& p, const std::vector<float>& volumes,
+                 const Attribute* velocity, Stats& stats, TriangleMesh& mesh, const ProgressFn& progress);
 
 }  // namespace meniscus::cuda

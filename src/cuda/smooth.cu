@@ -243,34 +243,47 @@ __global__ void apply_w_kernel(const uint32_t* offsets, const uint32_t* neighbor
   MENISCUS_GRID_STRIDE(i, nv) { y[i] = apply_w_row(offsets, neighbors, w, diag, x, uint32_t(i)); }
 }
 
-__device__ void project(const GridView& g, float r_inner, float r_outer, Vec3f* x, uint32_t i) {
-  x[i] = project_vertex_on(g, x[i], r_inner, r_outer);
-}
+/// The constraint of the sweeps: Williams' spherical shells, or with `shells` the ellipsoid
+/// shells of the anisotropic field (constraint_impl.hpp, as on the CPU); and the per-vertex
+/// factor on the damping (velocity weighting; 1 without).
+struct Constraint {
+  GridView grid;
+  float r_inner = 0, r_outer = 0;
+  const Ellipsoid* shells = nullptr;
+  float max_axis = 1;
+  const float* vertex_relax = nullptr;
+
+  __device__ float factor(uint32_t i) const { return vertex_relax != nullptr ? vertex_relax[i] : 1.0f; }
+  __device__ void project(Vec3f* x, uint32_t i) const {
+    x[i] = shells != nullptr ? project_vertex_in_metric(grid, shells, x[i], r_inner, r_outer, max_axis)
+                             : project_vertex_on(grid, x[i], r_inner, r_outer);
+  }
+};
 
 /// A sweep on `count` vertices (a colour class, or all of them for Jacobi with x_in ≠ x_out).
 __global__ void a_sweep_kernel(const uint32_t* offsets, const uint32_t* neighbors, const uint32_t* vertices,
-                               uint64_t count, const Vec3f* x_in, Vec3f* x_out, float w, GridView grid, float r_inner,
-                               float r_outer, bool project_now) {
+                               uint64_t count, const Vec3f* x_in, Vec3f* x_out, float w, Constraint c,
+                               bool project_now) {
   MENISCUS_GRID_STRIDE(k, count) {
     const uint32_t i = vertices != nullptr ? vertices[k] : uint32_t(k);
-    x_out[i] = x_in[i] + (neighbour_mean_row(offsets, neighbors, x_in, i) - x_in[i]) * w;
-    if (project_now) project(grid, r_inner, r_outer, x_out, i);
+    x_out[i] = x_in[i] + (neighbour_mean_row(offsets, neighbors, x_in, i) - x_in[i]) * (w * c.factor(i));
+    if (project_now) c.project(x_out, i);
   }
 }
 
-__global__ void project_kernel(Vec3f* x, uint64_t nv, GridView grid, float r_inner, float r_outer) {
-  MENISCUS_GRID_STRIDE(i, nv) { project(grid, r_inner, r_outer, x, uint32_t(i)); }
+__global__ void project_kernel(Vec3f* x, uint64_t nv, Constraint c) {
+  MENISCUS_GRID_STRIDE(i, nv) { c.project(x, uint32_t(i)); }
 }
 
 __global__ void b_gauss_seidel_kernel(const uint32_t* offsets, const uint32_t* neighbors, const uint32_t* vertices,
                                       uint64_t count, const float* w, const float* diag, const float* area,
                                       const float* b_diag, Vec3f* x, Vec3f* wx, float relax, bool constrained,
-                                      GridView grid, float r_inner, float r_outer) {
+                                      Constraint c) {
   MENISCUS_GRID_STRIDE(k, count) {
     const uint32_t i = vertices[k];
     const Vec3f before = x[i];
-    x[i] -= bilaplacian_row_from_wx(offsets, neighbors, w, diag, area, wx, i) * (relax / b_diag[i]);
-    if (constrained) project(grid, r_inner, r_outer, x, i);
+    x[i] -= bilaplacian_row_from_wx(offsets, neighbors, w, diag, area, wx, i) * (relax * c.factor(i) / b_diag[i]);
+    if (constrained) c.project(x, i);
     const Vec3f delta = x[i] - before;
     wx[i] += delta * diag[i];
     for (uint32_t e = offsets[i]; e < offsets[i + 1]; ++e) wx[neighbors[e]] += delta * w[e];
@@ -282,10 +295,10 @@ __global__ void divide_area_kernel(const Vec3f* wx, const float* area, uint64_t 
 }
 
 __global__ void b_jacobi_kernel(const Vec3f* bx, const float* b_diag, uint64_t nv, Vec3f* x, float relax,
-                                bool constrained, GridView grid, float r_inner, float r_outer) {
+                                bool constrained, Constraint c) {
   MENISCUS_GRID_STRIDE(i, nv) {
-    x[i] -= bx[i] * (relax / b_diag[i]);
-    if (constrained) project(grid, r_inner, r_outer, x, uint32_t(i));
+    x[i] -= bx[i] * (relax * c.factor(uint32_t(i)) / b_diag[i]);
+    if (constrained) c.project(x, uint32_t(i));
   }
 }
 
@@ -320,7 +333,13 @@ void smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGr
   const uint64_t nv = mesh.vertex_count;
   if (nv == 0 || o.steps_a + o.steps_b + o.steps_free == 0) return;
   const bool gauss_seidel = o.solver == SmoothingSolver::gauss_seidel;
-  const GridView g = grid.view();
+  Constraint g;
+  g.grid = grid.view();
+  g.r_inner = o.r_inner;
+  g.r_outer = o.r_outer;
+  g.shells = o.shells;
+  g.max_axis = o.max_axis;
+  g.vertex_relax = o.vertex_relax;
   const uint32_t* off = adj.offsets.data();
   const uint32_t* nb = adj.neighbors.data();
   Vec3f* x = mesh.vertices.data();
@@ -334,17 +353,17 @@ void smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGr
         for (std::size_t c = 0; c + 1 < colors.offsets.size(); ++c) {
           const uint32_t b = colors.offsets[c], e = colors.offsets[c + 1];
           a_sweep_kernel<<<blocks_for(e - b), 256>>>(off, nb, colors.vertices.data() + b, e - b, x, x, o.relax_a, g,
-                                                     o.r_inner, o.r_outer, true);
+                                                     true);
           MENISCUS_CUDA_CHECK_LAUNCH();
         }
     } else {
       for (int s = 0; s < o.steps_a; ++s) {
         a_sweep_kernel<<<blocks_for(nv), 256>>>(off, nb, nullptr, nv, mesh.vertices.data(), next.data(), o.relax_a, g,
-                                                o.r_inner, o.r_outer, false);
+                                                false);
         MENISCUS_CUDA_CHECK_LAUNCH();
         std::swap(mesh.vertices, next);
         x = mesh.vertices.data();
-        project_kernel<<<blocks_for(nv), 256>>>(x, nv, g, o.r_inner, o.r_outer);
+        project_kernel<<<blocks_for(nv), 256>>>(x, nv, g);
         MENISCUS_CUDA_CHECK_LAUNCH();
       }
     }
@@ -406,7 +425,7 @@ void smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGr
         const uint32_t b = colors.offsets[c], e = colors.offsets[c + 1];
         b_gauss_seidel_kernel<<<blocks_for(e - b), 256>>>(off, nb, colors.vertices.data() + b, e - b, op.w.data(),
                                                           op.diag.data(), op.area.data(), op.b_diag.data(), x,
-                                                          scratch.data(), w, constrained, g, o.r_inner, o.r_outer);
+                                                          scratch.data(), w, constrained, g);
         MENISCUS_CUDA_CHECK_LAUNCH();
       }
     } else {
@@ -415,8 +434,7 @@ void smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGr
       MENISCUS_CUDA_CHECK_LAUNCH();
       apply_w_kernel<<<blocks_for(nv), 256>>>(off, nb, op.w.data(), op.diag.data(), z.data(), nv, next.data());
       MENISCUS_CUDA_CHECK_LAUNCH();
-      b_jacobi_kernel<<<blocks_for(nv), 256>>>(next.data(), op.b_diag.data(), nv, x, w, constrained, g, o.r_inner,
-                                               o.r_outer);
+      b_jacobi_kernel<<<blocks_for(nv), 256>>>(next.data(), op.b_diag.data(), nv, x, w, constrained, g);
       MENISCUS_CUDA_CHECK_LAUNCH();
     }
     const double e = gauss_seidel ? energy_from_wx() : energy_of();

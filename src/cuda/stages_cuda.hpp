@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "cuda/cuda_check.hpp"
+#include "field/kernel_impl.hpp"
 #include "field/sparse_field.hpp"
 #include "grid/hash_grid_impl.hpp"
 #include "grid/key_index.hpp"
@@ -117,10 +118,39 @@ DeviceBuffer<uint64_t> band_blocks(const DeviceGrid& grid, const SampleLattice& 
 DeviceField distance_field(const DeviceGrid& grid, const SampleLattice& lattice, float band,
                            DeviceBuffer<uint64_t> keys, std::size_t block_count);
 
+/// kernel_field() on the device over `keys` (moved in): one thread per sample gathering
+/// kernel_field_sample (kernel_impl.hpp; `k` holds device pointers, per sorted particle).
+DeviceField kernel_field(const DeviceGrid& grid, const SampleLattice& lattice, const KernelParticles& k, float support,
+                         float iso, float background, DeviceBuffer<uint64_t> keys, std::size_t block_count);
+
+// --- per-particle stages (fields.cu) -------------------------------------------------------------------
+
+/// Bounds of `count` device points (exact: min and max are order-independent).
+void point_bounds(const DeviceBuffer<Vec3f>& points, uint32_t count, Vec3f* lo, Vec3f* hi);
+/// The largest max_axis of `count` device ellipsoids (≥ 0).
+float max_ellipsoid_axis(const DeviceBuffer<Ellipsoid>& ellipsoids, uint32_t count);
+/// Yu & Turk over `raw`, a grid of the original particles (anisotropy.cpp): per particle, in the
+/// original order, the ellipsoid (when `ellipsoids` is non-null; neighbours within pca_radius)
+/// and the Laplacian-smoothed centre (when lambda > 0, else the particle; neighbours within
+/// smooth_radius).
+void particle_frames(const DeviceGrid& raw, float pca_radius, const AnisotropyConstants& k, float smooth_radius,
+                     float lambda, DeviceBuffer<Vec3f>* centres, DeviceBuffer<Ellipsoid>* ellipsoids);
+/// out[i] = values[order[i]]: per-particle data from the original order into the grid's.
+DeviceBuffer<float> to_sorted_order(const DeviceGrid& grid, const DeviceBuffer<float>& values);
+DeviceBuffer<Ellipsoid> to_sorted_order(const DeviceGrid& grid, const DeviceBuffer<Ellipsoid>& values);
+/// unit_volume_shell() of every ellipsoid (the smoothing's constraint shells).
+DeviceBuffer<Ellipsoid> unit_volume_shells(const DeviceBuffer<Ellipsoid>& ellipsoids);
+/// velocity_weight() of every vertex from its transferred velocity (3 floats a vertex).
+DeviceBuffer<float> velocity_weights(const DeviceBuffer<float>& velocity, std::size_t vertices, float reference,
+                                     float min_weight);
+
 /// extract_surface() on the device: march (count, scan, write), then weld by sorting edge keys.
 DeviceMesh extract_surface(const DeviceField& field, float iso, Extractor extractor);
 /// remove_small_voids() on the device; returns the number of voids removed.
 std::size_t remove_small_voids(DeviceMesh& mesh, double max_volume);
+/// remove_unsupported_blobs() on the device (kernel fields), against the points of `grid`; returns
+/// the number of components removed.
+std::size_t remove_unsupported_blobs(DeviceMesh& mesh, const DeviceGrid& grid, double max_volume, double min_volume);
 /// reorder_vertices_spatially() on the device: the same numbering as the CPU.
 void reorder_vertices_spatially(DeviceMesh& mesh);
 
@@ -132,6 +162,12 @@ struct SmoothSettings {
   SmoothingSolver solver = SmoothingSolver::gauss_seidel;
   int rebuild_b = 0;
   float r_inner = 0, r_outer = 0;
+  /// Ellipsoid constraints (anisotropic): the shells per sorted particle and their largest axis;
+  /// null: spherical shells.
+  const Ellipsoid* shells = nullptr;
+  float max_axis = 1;
+  /// Per-vertex factor on the damping of every sweep (velocity weighting); null: 1.
+  const float* vertex_relax = nullptr;
 };
 /// smooth_surface() on the device (constrained against `grid`).
 void smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGrid& grid, const SmoothSettings& s);

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <random>
 
@@ -17,6 +18,7 @@
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
 #include "meniscus/reconstruct.hpp"
+#include "smooth/constraint_impl.hpp"
 #include "smooth/operators_impl.hpp"
 #include "support/io_helpers.hpp"
 #include "support/test_support.hpp"
@@ -25,6 +27,7 @@
 #include "cuda/stages_cuda.hpp"
 #include "extract/extract.hpp"
 #include "field/anisotropy.hpp"
+#include "field/anisotropy_impl.hpp"
 #include "field/distance_field.hpp"
 #include "field/kernel_field.hpp"
 #include "grid/hash_grid.hpp"
@@ -278,6 +281,64 @@ TEST(CudaParity, ParticleSmoothingAndVelocityWeighting) {
 }
 
 #if defined(MENISCUS_HAS_CUDA)
+// --- the device's views, run on the host (no device needed) ------------------------------------------
+
+// The device stages call the shared templates through GridView (binary search over the sorted cell
+// keys) where the CPU uses its HashGrid. A GridView over the HashGrid's host arrays must answer
+// every query of the field methods exactly as the HashGrid does.
+TEST(CudaViews, HostGridViewAnswersTheFieldMethodQueriesAsTheHashGrid) {
+  const ParticleSet ps = read_particles(test::data_file("ply/double_dam_break_frame_26_4732_particles.ply"));
+  const float d = float(estimate_spacing(ps)), R = 2 * d;
+  const HashGrid grid(ps.positions, 2 * d);
+  cuda::GridView view;
+  view.sorted = grid.points();
+  view.keys = grid.cell_keys().data();
+  view.starts = grid.cell_starts().data();
+  view.cells = uint32_t(grid.cell_keys().size());
+  view.count = uint32_t(grid.size());
+  view.cs = grid.cell_size();
+  view.lo = grid.cell_min();
+  view.hi = grid.cell_max();
+
+  AnisotropyConstants k;
+  k.bulk_variance = yu_turk_bulk_variance(2 * R);
+  std::vector<Ellipsoid> shells(grid.size());
+  float max_axis = 0;
+  for (uint32_t i = 0; i < grid.size(); ++i) {
+    const Ellipsoid a = particle_ellipsoid(grid, i, 2 * R, k), b = particle_ellipsoid(view, i, 2 * R, k);
+    ASSERT_EQ(std::memcmp(&a, &b, sizeof a), 0) << i;
+    const Vec3f c = smoothed_position(grid, i, 2 * d, 0.5f);
+    ASSERT_EQ(c, smoothed_position(view, i, 2 * d, 0.5f)) << i;
+    shells[i] = unit_volume_shell(a);
+    max_axis = std::max(max_axis, shells[i].max_axis);
+  }
+  // Kernel sums at random points of a few blocks, and the metric-nearest projection.
+  KernelParticles kp;
+  kp.method = FieldMethod::anisotropic;
+  kp.radius = R;
+  kp.uniform_volume = d * d * d;
+  kp.ellipsoids = shells.data();
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<uint32_t> pick(0, uint32_t(grid.size() - 1));
+  std::uniform_real_distribution<float> u(-1.5f, 1.5f);
+  const float off[3] = {0.25f, 0.5f, 0.0f};
+  std::size_t projected = 0;
+  for (int t = 0; t < 400; ++t) {
+    const Vec3f p = grid.point(pick(rng));
+    const Vec3i cell = grid_cell_of(p, d);
+    const Vec3i origin{cell.x - 3, cell.y - 3, cell.z - 3};
+    const float a = kernel_field_sample(grid, kp, R * max_axis, 0.5f, 0.5f, origin, 8, d, cell, off);
+    const float b = kernel_field_sample(view, kp, R * max_axis, 0.5f, 0.5f, origin, 8, d, cell, off);
+    ASSERT_TRUE(test::same_bits(a, b)) << t;
+    const Vec3f x = p + Vec3f{u(rng), u(rng), u(rng)} * d;
+    const Vec3f ya = project_vertex_in_metric(grid, shells.data(), x, 0.5f * d, d, max_axis);
+    const Vec3f yb = project_vertex_in_metric(view, shells.data(), x, 0.5f * d, d, max_axis);
+    ASSERT_EQ(ya, yb) << t;
+    projected += !(ya == x);
+  }
+  EXPECT_GT(projected, 50u);  // the queries moved vertices, not only accepted them
+}
+
 // --- device stages against the CPU's (needs a device) --------------------------------------------------
 
 TEST(CudaStages, GridFieldAndExtractionMatchTheCpu) {

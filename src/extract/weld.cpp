@@ -1,5 +1,6 @@
 // meniscus — edge weld by radix sort + unique on lattice-edge keys (Williams 2008; Edespong 2010 §4.3).
 #include "extract/weld.hpp"
+#include "mesh/compact.hpp"
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
@@ -140,26 +141,7 @@ Vec3f edge_vertex(uint64_t key, const SparseField& field, float iso) {
 /// any more. Never reached by the marching stages (a triangle's corners lie on distinct edges of
 /// one cell, hence have distinct keys); kept so the weld's contract holds for any input.
 std::size_t drop_repeated(TriangleMesh& mesh) {
-  std::vector<Triangle> kept;
-  kept.reserve(mesh.triangles.size());
-  std::vector<uint32_t> remap(mesh.vertices.size(), kNotFound);
-  for (const Triangle& t : mesh.triangles) {
-    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) continue;
-    kept.push_back(t);
-    for (uint32_t v : t) remap[v] = 0;
-  }
-  const std::size_t dropped = mesh.triangles.size() - kept.size();
-  uint32_t next = 0;
-  for (std::size_t v = 0; v < remap.size(); ++v)
-    if (remap[v] != kNotFound) {
-      mesh.vertices[next] = mesh.vertices[v];
-      remap[v] = next++;
-    }
-  mesh.vertices.resize(next);
-  for (Triangle& t : kept)
-    for (uint32_t& v : t) v = remap[v];
-  mesh.triangles = std::move(kept);
-  return dropped;
+  return keep_triangles(mesh, [](const Triangle& t) { return t[0] != t[1] && t[1] != t[2] && t[0] != t[2]; });
 }
 
 void check_vertex_count(std::size_t vertices) {

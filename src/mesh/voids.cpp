@@ -1,6 +1,7 @@
 // meniscus — small interior void removal.
 #include "mesh/voids.hpp"
 
+#include "mesh/compact.hpp"
 #include "mesh/ray_parity_impl.hpp"
 
 #include <tbb/blocked_range.h>
@@ -113,31 +114,7 @@ MeshComponents mesh_components(const TriangleMesh& mesh) {
 /// Removes the triangles of the components whose root has drop[root] set, then the vertices no
 /// triangle uses (order otherwise preserved; normals and attributes follow if present).
 void drop_components(TriangleMesh& mesh, const std::vector<uint32_t>& root, const std::vector<uint8_t>& drop) {
-  const std::size_t nv = mesh.vertices.size();
-  std::vector<Triangle> kept;
-  kept.reserve(mesh.triangles.size());
-  for (const Triangle& t : mesh.triangles)
-    if (!drop[root[t[0]]]) kept.push_back(t);
-  mesh.triangles = std::move(kept);
-
-  std::vector<uint32_t> remap(nv, ~0u);
-  for (const Triangle& t : mesh.triangles)
-    for (uint32_t v : t) remap[v] = 0;
-  uint32_t next = 0;
-  for (uint32_t v = 0; v < nv; ++v)
-    if (remap[v] == 0) remap[v] = next++;
-  auto compact = [&](auto& values, std::size_t per_vertex) {
-    if (values.empty()) return;
-    for (uint32_t v = 0; v < nv; ++v)
-      if (remap[v] != ~0u)
-        for (std::size_t k = 0; k < per_vertex; ++k) values[remap[v] * per_vertex + k] = values[v * per_vertex + k];
-    values.resize(std::size_t(next) * per_vertex);
-  };
-  compact(mesh.vertices, 1);
-  compact(mesh.normals, 1);
-  for (Attribute& a : mesh.attributes) compact(a.values, std::size_t(a.components));
-  for (Triangle& t : mesh.triangles)
-    for (uint32_t& v : t) v = remap[v];
+  keep_triangles(mesh, [&](const Triangle& t) { return !drop[root[t[0]]]; });
 }
 
 }  // namespace

@@ -1,0 +1,90 @@
+// meniscus — dropping triangles from a mesh, and with them the vertices no triangle uses, in
+// parallel and in order (the void and blob removal, the weld's repeated-vertex triangles).
+#pragma once
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "meniscus/mesh.hpp"
+
+namespace meniscus {
+
+namespace detail {
+
+inline constexpr std::size_t kCompactChunk = std::size_t(1) << 15;
+
+/// Per chunk of kCompactChunk flags, the index of its first set flag among all set flags (an
+/// exclusive scan of the chunks' counts, in chunk order); returns the total.
+inline std::size_t chunk_offsets(const std::vector<uint8_t>& flags, std::vector<std::size_t>& offsets) {
+  const std::size_t chunks = (flags.size() + kCompactChunk - 1) / kCompactChunk;
+  offsets.assign(chunks + 1, 0);
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    std::size_t n = 0;
+    for (std::size_t i = c * kCompactChunk, end = std::min(flags.size(), i + kCompactChunk); i < end; ++i) n += flags[i];
+    offsets[c + 1] = n;
+  });
+  for (std::size_t c = 0; c < chunks; ++c) offsets[c + 1] += offsets[c];
+  return offsets[chunks];
+}
+
+/// Calls f(i, rank) for every set flag i, rank its position among the set flags; parallel over chunks.
+template <class F>
+void for_each_set(const std::vector<uint8_t>& flags, const std::vector<std::size_t>& offsets, F&& f) {
+  tbb::parallel_for(std::size_t(0), offsets.size() - 1, [&](std::size_t c) {
+    std::size_t rank = offsets[c];
+    for (std::size_t i = c * kCompactChunk, end = std::min(flags.size(), i + kCompactChunk); i < end; ++i)
+      if (flags[i]) f(i, rank++);
+  });
+}
+
+}  // namespace detail
+
+/// Keeps the triangles t with keep(t) (in order), then drops the vertices no kept triangle uses
+/// (in order; normals and per-vertex attributes follow). Parallel, and the result does not depend
+/// on the thread count. Returns the number of triangles dropped (none: the mesh is left as it is).
+template <class Keep>
+std::size_t keep_triangles(TriangleMesh& mesh, Keep&& keep) {
+  const std::size_t nt = mesh.triangles.size(), nv = mesh.vertices.size();
+  std::vector<uint8_t> kept(nt, 0), used(nv, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nt, 4096), [&](const auto& r) {
+    for (std::size_t t = r.begin(); t != r.end(); ++t)
+      if (keep(mesh.triangles[t])) {
+        kept[t] = 1;
+        for (uint32_t v : mesh.triangles[t]) std::atomic_ref<uint8_t>(used[v]).store(1, std::memory_order_relaxed);
+      }
+  });
+  std::vector<std::size_t> offsets;
+  const std::size_t new_nt = detail::chunk_offsets(kept, offsets);
+  if (new_nt == nt) return 0;
+  std::vector<Triangle> triangles(new_nt);
+  detail::for_each_set(kept, offsets, [&](std::size_t t, std::size_t k) { triangles[k] = mesh.triangles[t]; });
+  std::vector<Triangle>().swap(mesh.triangles);
+
+  const std::size_t new_nv = detail::chunk_offsets(used, offsets);
+  std::vector<uint32_t> remap(nv, ~0u);
+  detail::for_each_set(used, offsets, [&](std::size_t v, std::size_t k) { remap[v] = uint32_t(k); });
+  auto compact = [&](auto& values, std::size_t per_vertex) {
+    if (values.empty()) return;
+    std::remove_reference_t<decltype(values)> out(new_nv * per_vertex);
+    detail::for_each_set(used, offsets, [&](std::size_t v, std::size_t k) {
+      for (std::size_t j = 0; j < per_vertex; ++j) out[k * per_vertex + j] = values[v * per_vertex + j];
+    });
+    values.swap(out);
+  };
+  compact(mesh.vertices, 1);
+  compact(mesh.normals, 1);
+  for (Attribute& a : mesh.attributes) compact(a.values, std::size_t(a.components));
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, new_nt, 4096), [&](const auto& r) {
+    for (std::size_t t = r.begin(); t != r.end(); ++t)
+      for (uint32_t& v : triangles[t]) v = remap[v];
+  });
+  mesh.triangles = std::move(triangles);
+  return nt - new_nt;
+}
+
+}  // namespace meniscus

@@ -393,13 +393,7 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
 
   timer.run("smooth", [&] {
     SmoothOptions o;
-    o.steps_a = p.steps_a;
-    o.steps_b = p.steps_b;
-    o.steps_free = p.steps_free;
-    o.relax_a = float(p.relax);
-    o.relax_b = float(p.relax_b);
-    o.solver = p.solver;
-    o.rebuild_b = p.rebuild_b;
+    static_cast<SmoothSchedule&>(o) = smooth_schedule(p);
     std::vector<float> weights;
     if (p.velocity_weighted) {
       weights = velocity_weights(*velocity, grid, mesh.vertices, p);

@@ -193,13 +193,7 @@ void reconstruct(const ParticleSet& particles, const Params& p, const std::vecto
       s.shells = shell_ellipsoids.data();
       s.max_axis = max_ellipsoid_axis(shell_ellipsoids, uint32_t(n));
     }
-    s.steps_a = p.steps_a;
-    s.steps_b = p.steps_b;
-    s.steps_free = p.steps_free;
-    s.relax_a = float(p.relax);
-    s.relax_b = float(p.relax_b);
-    s.solver = p.solver;
-    s.rebuild_b = p.rebuild_b;
+    static_cast<SmoothSchedule&>(s) = smooth_schedule(p);
     s.r_inner = r_inner;
     s.r_outer = r_outer;
     smooth_surface(dmesh, adj, grid, s);

@@ -14,6 +14,7 @@
 #include "grid/key_index.hpp"
 #include "meniscus/params.hpp"
 #include "meniscus/vec.hpp"
+#include "smooth/schedule.hpp"
 
 namespace meniscus::cuda {
 
@@ -156,11 +157,7 @@ void reorder_vertices_spatially(DeviceMesh& mesh);
 
 DeviceAdjacency build_adjacency(const DeviceMesh& mesh);
 
-struct SmoothSettings {
-  int steps_a = 40, steps_b = 20, steps_free = 3;
-  float relax_a = 1, relax_b = 1;
-  SmoothingSolver solver = SmoothingSolver::gauss_seidel;
-  int rebuild_b = 0;
+struct SmoothSettings : SmoothSchedule {
   float r_inner = 0, r_outer = 0;
   /// Ellipsoid constraints (anisotropic): the shells per sorted particle and their largest axis;
   /// null: spherical shells.

@@ -12,15 +12,11 @@
 #include "meniscus/mesh.hpp"
 #include "meniscus/params.hpp"
 #include "smooth/constraints.hpp"
+#include "smooth/schedule.hpp"
 
 namespace meniscus {
 
-struct SmoothOptions {
-  int steps_a = 40, steps_b = 20, steps_free = 3;
-  float relax_a = 1.0f;   ///< ω of the A sweeps
-  float relax_b = 1.0f;   ///< initial ω of the B sweeps; halved whenever a sweep raises the energy
-  SmoothingSolver solver = SmoothingSolver::gauss_seidel;
-  int rebuild_b = 0;      ///< rebuild W and D every k B sweeps; 0: once, from the shrunk mesh
+struct SmoothOptions : SmoothSchedule {
   /// Per-vertex factor in (0, 1] on the damping of every sweep (velocity weighting); empty: 1.
   std::span<const float> vertex_relax;
 };

@@ -38,9 +38,14 @@ __global__ void bounds_kernel(const Vec3f* points, uint64_t n, int* out) {  // o
       hi[a] = v > hi[a] ? v : hi[a];
     }
   }
+  // One atomic per warp (every thread of the block reaches this line: the loop above has no exit).
   for (int a = 0; a < 3; ++a) {
-    atomicMin(&out[a], lo[a]);
-    atomicMax(&out[3 + a], hi[a]);
+    lo[a] = __reduce_min_sync(0xffffffffu, lo[a]);
+    hi[a] = __reduce_max_sync(0xffffffffu, hi[a]);
+    if ((threadIdx.x & 31) == 0) {
+      atomicMin(&out[a], lo[a]);
+      atomicMax(&out[3 + a], hi[a]);
+    }
   }
 }
 
@@ -50,7 +55,8 @@ __global__ void max_axis_kernel(const Ellipsoid* e, uint64_t n, int* out) {
     const int v = ordered_bits(e[i].max_axis);
     m = v > m ? v : m;
   }
-  atomicMax(out, m);
+  m = __reduce_max_sync(0xffffffffu, m);
+  if ((threadIdx.x & 31) == 0) atomicMax(out, m);
 }
 
 __global__ void frames_kernel(GridView g, const uint32_t* order, uint64_t n, float pca_radius, AnisotropyConstants k,

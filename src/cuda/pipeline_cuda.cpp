@@ -81,16 +81,20 @@ void reconstruct(const ParticleSet& particles, const Params& p, const std::vecto
   // read here anyway to upload them).
   Vec3f lo = particles.positions[0], hi = lo;
   for (const Vec3f& q : particles.positions) lo = min(lo, q), hi = max(hi, q);
-  // (The grid of the raw particles for Yu & Turk has cells of at least 2d.)
-  const float smallest_cell = p.smooth_particles > 0 || anisotropic ? std::min(cell_size, float(2 * d)) : cell_size;
+  // (The grid of the raw particles for Yu & Turk has its own cell size, as on the CPU.)
+  const float raw_cell = float(std::max(2 * d, anisotropic ? 4 * p.kernel_radius : 0.0));
+  const float smallest_cell = p.smooth_particles > 0 || anisotropic ? std::min(cell_size, raw_cell) : cell_size;
   const double limit = double(kMaxCoord) * smallest_cell;
   for (int a = 0; a < 3; ++a)
     if (std::abs(double(lo[a])) >= limit || std::abs(double(hi[a])) >= limit)
       throw ResourceError(fmt::format("points reach {:g} on axis {}, more than {} cells of size {:g} from the origin",
                                       std::max(std::abs(double(lo[a])), std::abs(double(hi[a]))), "xyz"[a], kMaxCoord,
                                       smallest_cell));
-  // Positions, the hash grid, and for the field methods the centres, ellipsoids (40 B) and volumes.
-  check_fits(double(n) * (64.0 + (kernel ? 2 * 44.0 + 8.0 : 0.0)), "the particles and their hash grid");
+  // Positions and the hash grid; the raw grid and the centres for Yu & Turk; the ellipsoids (36 B,
+  // twice while reordered, plus the shells) and volumes of the field methods.
+  const bool frames = p.smooth_particles > 0 || anisotropic;
+  check_fits(double(n) * (64.0 + (frames ? 64.0 : 0.0) + (anisotropic ? 3 * 36.0 : 0.0) + (kernel ? 8.0 : 0.0)),
+             "the particles and their hash grid");
 
   EventTimer timer(stats, progress);
   DeviceBuffer<Vec3f> points;
@@ -109,10 +113,9 @@ void reconstruct(const ParticleSet& particles, const Params& p, const std::vecto
   // Kernel centres: the particles, Laplacian-smoothed when asked (Yu & Turk §5), and the
   // anisotropic ellipsoids, both from a grid of the raw particles (as pipeline.cpp).
   DeviceBuffer<Ellipsoid> ellipsoids;  // original order, then the grid's
-  if (p.smooth_particles > 0 || anisotropic)
+  if (frames)
     timer.run("particles", [&] {
       const float pca_radius = float(2 * p.kernel_radius);
-      const float raw_cell = float(std::max(2 * d, anisotropic ? double(pca_radius) : 0.0));
       const DeviceGrid raw = build_grid(points, uint32_t(n), raw_cell, grid_cell_of(lo, raw_cell), grid_cell_of(hi, raw_cell));
       AnisotropyConstants k;
       k.bulk_variance = yu_turk_bulk_variance(pca_radius);

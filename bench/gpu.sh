@@ -15,6 +15,17 @@ cmake --build "$BUILD" -j "$JOBS"
 echo "== CUDA tests (backend dispatch, shared code, device stages, parity) =="
 "$BUILD/tests/meniscus_tests" --gtest_filter='SumTree*:MarchingTables*:Backend*:Cuda*:KernelField*' --gtest_color=no
 
+# Out-of-bounds and uninitialised device reads, on the small device tests, where the toolkit has
+# compute-sanitizer (most of the device code had never run when it was written).
+SANITIZER=$(command -v compute-sanitizer || ls /usr/local/cuda/bin/compute-sanitizer 2>/dev/null || true)
+if [ -n "$SANITIZER" ]; then
+  echo "== compute-sanitizer memcheck / initcheck on the device stage tests =="
+  "$SANITIZER" --tool memcheck --error-exitcode 1 "$BUILD/tests/meniscus_tests" --gtest_filter='CudaStages*:CudaParity.Extraction*:CudaParity.FieldMethods*' --gtest_color=no
+  "$SANITIZER" --tool initcheck --error-exitcode 1 "$BUILD/tests/meniscus_tests" --gtest_filter='CudaStages*' --gtest_color=no
+else
+  echo "(compute-sanitizer not found: device memory checks skipped)"
+fi
+
 echo "== GPU benchmark: jittered blocks, per-stage device times (CUDA events) =="
 "$BUILD/meniscus_bench_gpu" --backend cuda --counts "${COUNTS:-100000,1000000,10000000}"
 

@@ -29,7 +29,8 @@ Vec3f project_vertex(const ShellConstraint& c, Vec3f x);
 struct CachedParticleList {
   Vec3f anchor;     ///< where the list was made
   float reach = 0;  ///< every particle within this distance (or metric distance) is listed
-};  // 16 bytes: a record never straddles a cache line; the list ends at its first kNotFound slot
+  uint32_t count = 0;
+};
 
 /// What NeighbourCache and EllipsoidCache share: per vertex a CachedParticleList, K particle slots
 /// and the slack of the skip test — how far, in the constraint's distance, the vertex may move

@@ -51,29 +51,23 @@ __global__ void distance_kernel(GridView grid, const uint64_t* block_keys, int n
   const float band2 = band * band;
   const Vec3f box_lo = Vec3f{float(origin.x), float(origin.y), float(origin.z)} * a;
   const Vec3f box_hi = box_lo + Vec3f{1, 1, 1} * (a * float(n));
-  const Vec3i clo = grid_cell_of(box_lo - Vec3f{band, band, band}, grid.cs);
-  const Vec3i chi = grid_cell_of(box_hi + Vec3f{band, band, band}, grid.cs);
   for (int idx = threadIdx.x; idx < kBlockSamples; idx += blockDim.x) {
     const int cell = idx / spc, s = idx % spc;
     const Vec3i l{cell % n, (cell / n) % n, cell / (n * n)};
     const Vec3i g{origin.x + l.x, origin.y + l.y, origin.z + l.z};
     const float off[3] = {c_sample_offsets[s][0], c_sample_offsets[s][1], c_sample_offsets[s][2]};
     float d2 = band2;
-    for (int32_t cz = clo.z; cz <= chi.z; ++cz)
-      for (int32_t cy = clo.y; cy <= chi.y; ++cy)
-        for (int32_t cx = clo.x; cx <= chi.x; ++cx) {
-          const CellRange r = grid.cell_range(Vec3i{cx, cy, cz});
-          for (uint32_t pi = r.first; pi < r.second; ++pi) {
-            const Vec3f p = grid.sorted[pi];
-            // The same reach test as the CPU's scatter: is this sample in p's band box?
-            if (!sample_in_reach(p, band, inv_a, off, g)) continue;
-            const float dx = sample_delta(g.x, off[0], a, p.x);
-            const float dy = sample_delta(g.y, off[1], a, p.y);
-            const float dz = sample_delta(g.z, off[2], a, p.z);
-            const float d = sample_dist2(dx, dy, dz);
-            d2 = d < d2 ? d : d2;
-          }
-        }
+    grid_for_each_in_cells_of_box(grid, box_lo - Vec3f{band, band, band}, box_hi + Vec3f{band, band, band},
+                                  [&](uint32_t pi) {
+                                    const Vec3f p = grid.sorted[pi];
+                                    // The same reach test as the CPU's scatter: is this sample in p's band box?
+                                    if (!sample_in_reach(p, band, inv_a, off, g)) return;
+                                    const float dx = sample_delta(g.x, off[0], a, p.x);
+                                    const float dy = sample_delta(g.y, off[1], a, p.y);
+                                    const float dz = sample_delta(g.z, off[2], a, p.z);
+                                    const float d = sample_dist2(dx, dy, dz);
+                                    d2 = d < d2 ? d : d2;
+                                  });
     values[b * kBlockSamples + uint64_t(idx)] = sqrtf(d2 < band2 ? d2 : band2);
   }
 }

@@ -190,20 +190,14 @@ MENISCUS_HD float kernel_field_sample(const Grid& g, const KernelParticles& k, f
                                       const float (&off)[3]) {
   const Vec3f box_lo = Vec3f{float(block_origin.x), float(block_origin.y), float(block_origin.z)} * a;
   const Vec3f box_hi = box_lo + Vec3f{1, 1, 1} * (a * float(n));
-  const Vec3i clo = grid_cell_of(box_lo - Vec3f{support, support, support}, g.cell_size());
-  const Vec3i chi = grid_cell_of(box_hi + Vec3f{support, support, support}, g.cell_size());
   const float inv_a = 1.0f / a;
   const Vec3f q = kernel_sample_point(cell, off, a);
   KernelSum s;
-  for (int32_t cz = clo.z; cz <= chi.z; ++cz)
-    for (int32_t cy = clo.y; cy <= chi.y; ++cy)
-      for (int32_t cx = clo.x; cx <= chi.x; ++cx) {
-        const auto range = g.cell_range(Vec3i{cx, cy, cz});
-        for (uint32_t i = range.first; i < range.second; ++i) {
-          const Vec3f p = g.point(i);
-          if (sample_in_reach(p, kernel_reach(k, i), inv_a, off, cell)) kernel_add(k, i, p, q, s);
-        }
-      }
+  grid_for_each_in_cells_of_box(g, box_lo - Vec3f{support, support, support}, box_hi + Vec3f{support, support, support},
+                                [&](uint32_t i) {
+                                  const Vec3f p = g.point(i);
+                                  if (sample_in_reach(p, kernel_reach(k, i), inv_a, off, cell)) kernel_add(k, i, p, q, s);
+                                });
   return kernel_value(k, s, q, iso, background);
 }
 

@@ -54,13 +54,7 @@ class HashGrid {
   /// of the points inside it, cell by cell in z, y, x order).
   template <class F>
   void for_each_in_cells_of_box(Vec3f lo, Vec3f hi, F&& f) const {
-    const Vec3i clo = cell_of(lo), chi = cell_of(hi);
-    for (int32_t cz = clo.z; cz <= chi.z; ++cz)
-      for (int32_t cy = clo.y; cy <= chi.y; ++cy)
-        for (int32_t cx = clo.x; cx <= chi.x; ++cx) {
-          const auto [pb, pe] = cell_range({cx, cy, cz});
-          for (uint32_t i = pb; i < pe; ++i) f(i);
-        }
+    grid_for_each_in_cells_of_box(*this, lo, hi, f);
   }
 
   /// Calls f(sorted_index, dist2) for every point within distance r of p.

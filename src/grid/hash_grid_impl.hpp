@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
 
 #include "grid/key_index.hpp"
 #include "meniscus/vec.hpp"
@@ -28,6 +29,26 @@ MENISCUS_HD inline Vec3i grid_cell_of(Vec3f p, float cell_size) {
 /// Finite in every coordinate (x − x is NaN for ±∞ and NaN; no <cmath> classification needed on
 /// the device).
 MENISCUS_HD inline bool finite_point(Vec3f p) { return p.x - p.x == 0.0f && p.y - p.y == 0.0f && p.z - p.z == 0.0f; }
+
+/// Calls f(sorted_index) for every point of the cells that touch the box [lo, hi] (a superset of
+/// the points inside it), cell by cell in z, y, x order and by sorted index within a cell — the
+/// order the fields' scatters and gathers share. An f returning bool stops the walk with false.
+template <class Grid, class F>
+MENISCUS_HD void grid_for_each_in_cells_of_box(const Grid& g, Vec3f lo, Vec3f hi, F&& f) {
+  const Vec3i clo = grid_cell_of(lo, g.cell_size()), chi = grid_cell_of(hi, g.cell_size());
+  for (int32_t cz = clo.z; cz <= chi.z; ++cz)
+    for (int32_t cy = clo.y; cy <= chi.y; ++cy)
+      for (int32_t cx = clo.x; cx <= chi.x; ++cx) {
+        const auto range = g.cell_range(Vec3i{cx, cy, cz});
+        for (uint32_t i = range.first; i < range.second; ++i) {
+          if constexpr (std::is_same_v<decltype(f(i)), bool>) {
+            if (!f(i)) return;
+          } else {
+            f(i);
+          }
+        }
+      }
+}
 
 /// Calls f(sorted_index, dist2) for every point within distance r of p, cells in z, y, x order.
 template <class Grid, class F>

@@ -68,25 +68,21 @@ MENISCUS_HD bool encloses_a_point(const Grid& g, const uint32_t* tris, const uin
       lo = min(lo, v), hi = max(hi, v);
     }
   const RayParityFrame frame = ray_parity_frame(lo, hi, count);
-  const Vec3i clo = grid_cell_of(lo, g.cell_size()), chi = grid_cell_of(hi, g.cell_size());
-  for (int32_t cz = clo.z; cz <= chi.z; ++cz)
-    for (int32_t cy = clo.y; cy <= chi.y; ++cy)
-      for (int32_t cx = clo.x; cx <= chi.x; ++cx) {
-        const auto range = g.cell_range(Vec3i{cx, cy, cz});
-        for (uint32_t i = range.first; i < range.second; ++i) {
-          const Vec3f p = g.point(i);
-          if (!(p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z)) continue;
-          double px, py, pz;
-          if (!ray_parity_origin(frame, p, &px, &py, &pz)) continue;
-          int crossings = 0;
-          for (uint32_t k = 0; k < count; ++k) {
-            const uint32_t* t = tris + 3 * std::size_t(ids[k]);
-            crossings += ray_crosses(x[t[0]], x[t[1]], x[t[2]], px, py, pz);
-          }
-          if (crossings % 2 == 1) return true;
-        }
-      }
-  return false;
+  bool inside = false;
+  grid_for_each_in_cells_of_box(g, lo, hi, [&](uint32_t i) {
+    const Vec3f p = g.point(i);
+    if (!(p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z)) return true;
+    double px, py, pz;
+    if (!ray_parity_origin(frame, p, &px, &py, &pz)) return true;
+    int crossings = 0;
+    for (uint32_t k = 0; k < count; ++k) {
+      const uint32_t* t = tris + 3 * std::size_t(ids[k]);
+      crossings += ray_crosses(x[t[0]], x[t[1]], x[t[2]], px, py, pz);
+    }
+    inside = crossings % 2 == 1;
+    return !inside;  // stop at the first point inside
+  });
+  return inside;
 }
 
 }  // namespace meniscus

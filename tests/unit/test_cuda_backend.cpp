@@ -151,6 +151,41 @@ TEST(Backend, WithoutADeviceCudaIsRefusedAndAutoFallsBack) {
   EXPECT_EQ(warned, cuda_built());  // a build without CUDA has nothing to fall back from
 }
 
+// The field methods of #7 go to the same dispatch as the distance field (they used to be refused
+// on the CUDA backend): without a device, cuda is refused for the missing device and auto falls
+// back to the CPU with the same result as --backend cpu.
+TEST(Backend, FieldMethodsTakeTheSameDispatchWithoutADevice) {
+  if (have_cuda_device()) GTEST_SKIP() << "skipped: a CUDA device is present (this checks the no-device path)";
+  ParticleSet ps = test::lattice_block(6, 6, 6, 0.1f, 0.1f);
+  Attribute v{"v", 3, false, {}};
+  for (std::size_t i = 0; i < ps.size(); ++i) v.values.insert(v.values.end(), {float(i % 5), 0.0f, 0.0f});
+  ps.attributes.push_back(v);
+  for (FieldMethod m : {FieldMethod::metaball, FieldMethod::sph, FieldMethod::zhu_bridson, FieldMethod::anisotropic}) {
+    SCOPED_TRACE(to_string(m));
+    Params p;
+    p.spacing = 0.1;
+    p.field = m;
+    p.smooth_particles = 0.5;
+    p.velocity_weighted = true;
+    p.backend = Backend::cuda;
+    try {
+      reconstruct(ps, p);
+      FAIL() << "expected ResourceError";
+    } catch (const ResourceError& e) {
+      EXPECT_NE(std::string(e.what()).find("no CUDA backend available"), std::string::npos) << e.what();
+    }
+    p.backend = Backend::automatic;
+    const Result automatic = reconstruct(ps, p);
+    p.backend = Backend::cpu;
+    const Result cpu = reconstruct(ps, p);
+    EXPECT_EQ(automatic.stats.backend, "cpu");
+    EXPECT_GT(cpu.mesh.triangles.size(), 0u);
+    EXPECT_EQ(automatic.mesh.triangles, cpu.mesh.triangles);
+    EXPECT_EQ(automatic.mesh.vertices, cpu.mesh.vertices);
+    EXPECT_GT(automatic.params.velocity_reference, 0.0);  // resolved before the dispatch, for both
+  }
+}
+
 TEST(Backend, CliInfoAndBackendFlag) {
   std::string out;
   ASSERT_EQ(test::run_command(test::cli() + " info", &out), 0);

@@ -270,10 +270,11 @@ def object_particles(obj, depsgraph, settings):
     positions = _to_world(positions.reshape(-1, 3), evaluated.matrix_world)
 
     attributes = {}
-    if settings.transfer_velocity:
+    if settings.transfer_velocity or settings.velocity_weighted:
         velocity = _read_attribute(data, "velocity", 3)
         if velocity is None:
-            raise RuntimeError(f"'{obj.name}' has no point attribute 'velocity' (float vector) to transfer")
+            why = "to transfer" if settings.transfer_velocity else "for velocity-weighted smoothing"
+            raise RuntimeError(f"'{obj.name}' has no point attribute 'velocity' (float vector) {why}")
         attributes["velocity"] = _rotate(velocity, evaluated.matrix_world)
     if settings.transfer_color:
         names = [settings.color_attribute] if settings.color_attribute else []
@@ -304,7 +305,7 @@ def particle_system_particles(obj, depsgraph, settings):
     if not np.any(alive):
         raise RuntimeError(f"particle system '{system.name}' has no alive particles at this frame")
     attributes = {}
-    if settings.transfer_velocity:
+    if settings.transfer_velocity or settings.velocity_weighted:
         velocity = np.zeros(n * 3, np.float32)
         particles.foreach_get("velocity", velocity)
         attributes["velocity"] = velocity.reshape(-1, 3)[alive]
@@ -430,6 +431,22 @@ class MeniscusSettings(bpy.types.PropertyGroup):
         name="Color", default=False, description="Carry the particles' colour onto the mesh (colour attribute)")
     color_attribute: bpy.props.StringProperty(
         name="Colour attribute", default="", description="Point colour attribute of the source (empty: the active one)")
+    field: bpy.props.EnumProperty(
+        name="Field",
+        items=[("distance", "Distance", "Williams' union of spheres: keeps every droplet, fastest"),
+               ("anisotropic", "Anisotropic", "Yu & Turk's stretched kernels: flat sheets stay whole sheets"),
+               ("zhu-bridson", "Zhu-Bridson", "Distance to the kernel-weighted mean of the particles"),
+               ("sph", "SPH", "The SPH colour field at half density"),
+               ("metaball", "Metaballs", "Blinn's metaballs at half the bulk value")],
+        default="distance",
+        description="The field whose level set is the surface before smoothing")
+    smooth_particles: bpy.props.FloatProperty(
+        name="Smooth particles", min=-1.0, max=1.0, default=-1.0, subtype="FACTOR",
+        description="Laplacian smoothing of the particle positions before the field, against flicker "
+                    "(-1: the default, 0 for Distance, 0.3 for Anisotropic)")
+    velocity_weighted: bpy.props.BoolProperty(
+        name="Velocity weighted", default=False,
+        description="Smooth calm water more than fast water (needs a velocity attribute)")
     adjust_preset: bpy.props.BoolProperty(
         name="Adjust", default=False,
         description="Apply Smoothness and Detail on top of the preset (else the preset's own schedule)")
@@ -449,6 +466,12 @@ def params_from_settings(settings):
         params["erode"] = settings.erode
     if settings.spacing > 0:
         params["spacing"] = settings.spacing
+    if settings.field != "distance":
+        params["field"] = settings.field
+    if settings.smooth_particles >= 0:
+        params["smooth_particles"] = settings.smooth_particles
+    if settings.velocity_weighted:
+        params["velocity_weighted"] = True
     transfer = [n for n, on in (("velocity", settings.transfer_velocity), ("color", settings.transfer_color)) if on]
     if transfer:
         params["transfer"] = transfer
@@ -552,6 +575,10 @@ class MENISCUS_PT_panel(bpy.types.Panel):
         sliders.prop(settings, "detail")
         col.prop(settings, "erode")
         col.prop(settings, "spacing")
+        col = layout.column(align=True)
+        col.prop(settings, "field")
+        col.prop(settings, "smooth_particles")
+        col.prop(settings, "velocity_weighted")
         row = layout.row(align=True)
         row.label(text="Transfer")
         row.prop(settings, "transfer_color", toggle=True)

@@ -146,6 +146,34 @@ def surface_point_mesh():
     return counts
 
 
+def surface_with_a_field_method():
+    """The same point mesh with the panel's Field, Smooth particles and Velocity weighted: the
+    library's result for those keywords; the velocity is read for the weighting alone."""
+    positions, attributes = read_ply_particles(FRAME)
+    bpy.context.view_layer.objects.active = bpy.data.objects["dam break particles"]
+    settings = bpy.context.scene.meniscus
+    settings.source = "OBJECT"
+    settings.preset = "NONE"
+    settings.transfer_velocity = settings.transfer_color = False
+    settings.field = "anisotropic"
+    settings.smooth_particles = 0.5
+    settings.velocity_weighted = True
+    settings.result_name = "anisotropic surface"
+    assert bpy.ops.meniscus.surface() == {"FINISHED"}, settings.last_report
+    counts = assert_watertight(bpy.data.objects["anisotropic surface"])
+    params = addon.params_from_settings(settings)
+    assert params["field"] == "anisotropic" and params["smooth_particles"] == 0.5, params
+    assert params["velocity_weighted"] is True and "transfer" not in params, params
+    expected = reference_counts(positions, {"velocity": attributes["velocity"]}, params)
+    assert counts == expected, f"anisotropic: operator gave {counts}, the reference {expected}"
+    distance = bpy.data.objects["dam break particles surface"]
+    assert counts != (len(distance.data.vertices), len(distance.data.polygons)), "the field must change the surface"
+    print(f"anisotropic, velocity weighted: {settings.last_report}")
+    settings.field = "distance"
+    settings.smooth_particles = -1.0
+    settings.velocity_weighted = False
+
+
 def surface_sequence_on_frame_change(tmp):
     """Two frames on disk, surfaced by the frame_change_post handler as the frame changes."""
     for frame, source in enumerate(SEQUENCE_FRAMES, start=1):
@@ -249,6 +277,7 @@ check_panel_draws()
 with tempfile.TemporaryDirectory(prefix="meniscus-blender-") as tmp:
     surface_particle_system()
     surface_point_mesh()
+    surface_with_a_field_method()
     surface_sequence_on_frame_change(tmp)
 
     # The CLI fallback gives the same surfaces.

@@ -40,7 +40,6 @@ enum AttributeType : uint32_t { type_float = 0, type_int = 1, type_string = 2, t
 constexpr uint32_t prim_poly = 1;
 constexpr uint32_t prim_part = 0x8000;
 constexpr uint32_t prim_run = 0xFFFFFFFFu;
-constexpr std::size_t header_size = 41;
 
 struct DictionaryEntry {
   std::string name;

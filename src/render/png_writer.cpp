@@ -44,7 +44,9 @@ unsigned char* zlib_compress(unsigned char* data, int data_length, int* out_leng
 #pragma GCC diagnostic ignored "-Wimplicit-fallthrough"
 #pragma GCC diagnostic ignored "-Wpedantic"
 #pragma GCC diagnostic ignored "-Wdouble-promotion"
-#pragma GCC diagnostic ignored "-Wuseless-cast"
+#if !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wuseless-cast"  // GCC only
+#endif
 #pragma GCC diagnostic ignored "-Wold-style-cast"
 #define STB_IMAGE_WRITE_STATIC
 #define STBI_WRITE_NO_STDIO

@@ -324,18 +324,13 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
   // Kernel centres: the particles, Laplacian-smoothed when asked (Yu & Turk §5); the constraints
   // use the centres too, so the surface follows the smoothed positions.
   std::vector<Ellipsoid> ellipsoids;  // original order
+  const ParticlePass pass = particle_pass(p);
   const std::vector<Vec3f> centres = [&] {
-    if (p.smooth_particles == 0 && !anisotropic) return std::vector<Vec3f>{};
+    if (!pass.run) return std::vector<Vec3f>{};
     return timer.run("particles", [&] {
-      const float pca_radius = float(2 * p.kernel_radius);
-      const HashGrid raw(particles.positions, float(std::max(2 * d, anisotropic ? double(pca_radius) : 0.0)));
-      if (anisotropic) {
-        AnisotropyConstants k;
-        k.bulk_variance = yu_turk_bulk_variance(pca_radius);
-        ellipsoids = yu_turk_ellipsoids(raw, pca_radius, k);
-      }
-      return p.smooth_particles > 0 ? smooth_positions(raw, float(2 * d), float(p.smooth_particles))
-                                    : particles.positions;
+      const HashGrid raw(particles.positions, pass.raw_cell);
+      if (anisotropic) ellipsoids = yu_turk_ellipsoids(raw, pass.pca_radius, pass.constants);
+      return pass.lambda > 0 ? smooth_positions(raw, pass.smooth_radius, pass.lambda) : particles.positions;
     });
   }();
   const std::span<const Vec3f> positions = centres.empty() ? std::span<const Vec3f>(particles.positions) : centres;
@@ -378,14 +373,13 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
   TriangleMesh& mesh = result.mesh;
   mesh = std::move(extracted.mesh);
   if (!p.keep_voids)
-    stats.removed_voids = timer.run("voids", [&] { return remove_small_voids(mesh, 8 * d * d * d); });
+    stats.removed_voids = timer.run("voids", [&] { return remove_small_voids(mesh, small_component_volume(d)); });
   // A kernel field can close a blob around the gap between particles, with no particle inside,
   // or a blob smaller than the inner shell of its particle; the smoothing would crush either into
   // zero-area triangles (remove_unsupported_blobs).
   if (p.field != FieldMethod::distance)
     stats.removed_blobs = timer.run("blobs", [&] {
-      const double inner_ball = 4.0 / 3.0 * 3.14159265358979323846 * p.r_inner * p.r_inner * p.r_inner;
-      return remove_unsupported_blobs(mesh, grid, 8 * d * d * d, inner_ball);
+      return remove_unsupported_blobs(mesh, grid, small_component_volume(d), inner_ball_volume(p.r_inner));
     });
   // The extraction numbers vertices in edge-key (row-major) order; the sweeps run 2-4x faster
   // on a Z-ordered mesh, where a vertex's ring and particle list sit near it in memory.

@@ -9,6 +9,7 @@
 #include "cuda/stages_cuda.hpp"
 #include "extract/field_band.hpp"
 #include "meniscus/errors.hpp"
+#include "mesh/voids.hpp"
 
 namespace meniscus::cuda {
 
@@ -82,8 +83,8 @@ void reconstruct(const ParticleSet& particles, const Params& p, const std::vecto
   Vec3f lo = particles.positions[0], hi = lo;
   for (const Vec3f& q : particles.positions) lo = min(lo, q), hi = max(hi, q);
   // (The grid of the raw particles for Yu & Turk has its own cell size, as on the CPU.)
-  const float raw_cell = float(std::max(2 * d, anisotropic ? 4 * p.kernel_radius : 0.0));
-  const float smallest_cell = p.smooth_particles > 0 || anisotropic ? std::min(cell_size, raw_cell) : cell_size;
+  const ParticlePass pass = particle_pass(p);
+  const float smallest_cell = pass.run ? std::min(cell_size, pass.raw_cell) : cell_size;
   const double limit = double(kMaxCoord) * smallest_cell;
   for (int a = 0; a < 3; ++a)
     if (std::abs(double(lo[a])) >= limit || std::abs(double(hi[a])) >= limit)
@@ -92,8 +93,7 @@ void reconstruct(const ParticleSet& particles, const Params& p, const std::vecto
                                       smallest_cell));
   // Positions and the hash grid; the raw grid and the centres for Yu & Turk; the ellipsoids (36 B,
   // twice while reordered, plus the shells) and volumes of the field methods.
-  const bool frames = p.smooth_particles > 0 || anisotropic;
-  check_fits(double(n) * (64.0 + (frames ? 64.0 : 0.0) + (anisotropic ? 3 * 36.0 : 0.0) + (kernel ? 8.0 : 0.0)),
+  check_fits(double(n) * (64.0 + (pass.run ? 64.0 : 0.0) + (anisotropic ? 3 * 36.0 : 0.0) + (kernel ? 8.0 : 0.0)),
              "the particles and their hash grid");
 
   EventTimer timer(stats, progress);
@@ -113,16 +113,14 @@ void reconstruct(const ParticleSet& particles, const Params& p, const std::vecto
   // Kernel centres: the particles, Laplacian-smoothed when asked (Yu & Turk §5), and the
   // anisotropic ellipsoids, both from a grid of the raw particles (as pipeline.cpp).
   DeviceBuffer<Ellipsoid> ellipsoids;  // original order, then the grid's
-  if (frames)
+  if (pass.run)
     timer.run("particles", [&] {
-      const float pca_radius = float(2 * p.kernel_radius);
-      const DeviceGrid raw = build_grid(points, uint32_t(n), raw_cell, grid_cell_of(lo, raw_cell), grid_cell_of(hi, raw_cell));
-      AnisotropyConstants k;
-      k.bulk_variance = yu_turk_bulk_variance(pca_radius);
+      const DeviceGrid raw =
+          build_grid(points, uint32_t(n), pass.raw_cell, grid_cell_of(lo, pass.raw_cell), grid_cell_of(hi, pass.raw_cell));
       DeviceBuffer<Vec3f> centres;
-      particle_frames(raw, pca_radius, k, float(2 * d), float(p.smooth_particles),
-                      p.smooth_particles > 0 ? &centres : nullptr, anisotropic ? &ellipsoids : nullptr);
-      if (p.smooth_particles > 0) {
+      particle_frames(raw, pass.pca_radius, pass.constants, pass.smooth_radius, pass.lambda,
+                      pass.lambda > 0 ? &centres : nullptr, anisotropic ? &ellipsoids : nullptr);
+      if (pass.lambda > 0) {
         points = std::move(centres);
         point_bounds(points, uint32_t(n), &lo, &hi);  // within the particles' bounds up to rounding
       }
@@ -146,10 +144,8 @@ void reconstruct(const ParticleSet& particles, const Params& p, const std::vecto
     k.volumes = device_volumes.size() > 0 ? device_volumes.data() : nullptr;
     k.uniform_volume = float(d * d * d);
     k.ellipsoids = anisotropic ? ellipsoids.data() : nullptr;
-    // As kernel_support(): R, or R·max σ̃₁.
-    const float support = !kernel ? 0.0f
-                          : anisotropic ? k.radius * std::max(max_ellipsoid_axis(ellipsoids, uint32_t(n)), 1e-3f)
-                                        : k.radius;
+    const float support =
+        kernel_field_support(p.field, k.radius, anisotropic ? max_ellipsoid_axis(ellipsoids, uint32_t(n)) : 0.0f);
     const float band = kernel ? support + h : field_band(p);
     const DeviceField field = timer.run("field", [&] {
       std::size_t blocks = 0;
@@ -164,20 +160,19 @@ void reconstruct(const ParticleSet& particles, const Params& p, const std::vecto
       check_fits(bytes, "the field and the extraction");
       if (!kernel) return distance_field(grid, lattice, band, std::move(keys), blocks);
       const float iso = float(p.iso);
-      const float background = p.field == FieldMethod::zhu_bridson ? k.radius - iso : iso;  // kernel_background()
-      return kernel_field(grid, lattice, k, support, iso, background, std::move(keys), blocks);
+      return kernel_field(grid, lattice, k, support, iso, kernel_field_background(p.field, k.radius, iso),
+                          std::move(keys), blocks);
     });
     stats.field_blocks = field.blocks;
     return timer.run("extract", [&] { return extract_surface(field, kernel ? 0.0f : r_outer, p.extract); });
   }();
   stats.dropped_triangles = 0;
   if (!p.keep_voids)
-    stats.removed_voids = timer.run("voids", [&] { return remove_small_voids(dmesh, 8 * d * d * d); });
+    stats.removed_voids = timer.run("voids", [&] { return remove_small_voids(dmesh, small_component_volume(d)); });
   // As on the CPU: a kernel field's blobs the smoothing cannot hold (mesh/voids.hpp).
   if (kernel)
     stats.removed_blobs = timer.run("blobs", [&] {
-      const double inner_ball = 4.0 / 3.0 * 3.14159265358979323846 * p.r_inner * p.r_inner * p.r_inner;
-      return remove_unsupported_blobs(dmesh, grid, 8 * d * d * d, inner_ball);
+      return remove_unsupported_blobs(dmesh, grid, small_component_volume(d), inner_ball_volume(p.r_inner));
     });
   if (p.steps_a + p.steps_b + p.steps_free > 0) timer.run("reorder", [&] { reorder_vertices_spatially(dmesh); });
 

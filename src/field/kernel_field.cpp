@@ -11,10 +11,10 @@
 namespace meniscus {
 
 float kernel_support(const KernelFieldInput& in) {
-  if (in.method != FieldMethod::anisotropic) return in.kernel_radius;
   float axis = 0;
-  for (const Ellipsoid& e : in.ellipsoids) axis = std::max(axis, e.max_axis);
-  return in.kernel_radius * std::max(axis, 1e-3f);
+  if (in.method == FieldMethod::anisotropic)
+    for (const Ellipsoid& e : in.ellipsoids) axis = std::max(axis, e.max_axis);
+  return kernel_field_support(in.method, in.kernel_radius, axis);
 }
 
 namespace {
@@ -68,7 +68,7 @@ KernelParticles kernel_particles(const KernelFieldInput& in) {
 }
 
 float kernel_background(const KernelFieldInput& in) {
-  return in.method == FieldMethod::zhu_bridson ? in.kernel_radius - in.iso : in.iso;
+  return kernel_field_background(in.method, in.kernel_radius, in.iso);
 }
 
 SparseField kernel_field(const KernelFieldInput& in, const SampleLattice& lattice, std::vector<uint64_t> block_keys) {

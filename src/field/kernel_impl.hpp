@@ -3,6 +3,7 @@
 // Gross 2003 (SPH, poly6), Zhu & Bridson 2005, Yu & Turk 2010 (anisotropic kernels).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 
 #include "field/distance_field_impl.hpp"
@@ -60,6 +61,29 @@ struct AnisotropyConstants {
 /// The per-axis weighted variance of a ball of radius Rn filled uniformly, weights 1 − (r/Rn)³:
 /// ∫w r² dV / (3∫w dV) = 0.15 Rn².
 inline float yu_turk_bulk_variance(float Rn) { return 0.15f * Rn * Rn; }
+
+/// Yu & Turk's pass over the raw particles (centre smoothing, ellipsoids) for resolved parameters
+/// `p`, as both backends run it: PCA over 2R (their 2h), centre smoothing over 2d, and a grid of
+/// the raw particles with cells large enough for either search.
+struct ParticlePass {
+  bool run = false;  ///< centre smoothing or anisotropic kernels asked for
+  bool anisotropic = false;
+  float lambda = 0;  ///< centre smoothing λ (0: the centres are the particles)
+  float pca_radius = 0, smooth_radius = 0, raw_cell = 0;
+  AnisotropyConstants constants;
+};
+
+inline ParticlePass particle_pass(const Params& p) {
+  ParticlePass s;
+  s.anisotropic = p.field == FieldMethod::anisotropic;
+  s.lambda = float(p.smooth_particles);
+  s.run = p.smooth_particles > 0 || s.anisotropic;
+  s.pca_radius = float(2 * p.kernel_radius);
+  s.smooth_radius = float(2 * p.spacing);
+  s.raw_cell = float(std::max(2 * p.spacing, s.anisotropic ? double(s.pca_radius) : 0.0));
+  s.constants.bulk_variance = yu_turk_bulk_variance(s.pca_radius);
+  return s;
+}
 
 /// A particle's ellipsoid: the dimensionless metric A = R diag(1/σ̃) Rᵀ (so |A(x − c)| is the
 /// distance "in the particle's ellipsoid metric": the identity in a uniform fluid), its
@@ -143,6 +167,17 @@ struct KernelSum {
   float sum = 0;
   Vec3f weighted{0, 0, 0};
 };
+
+/// The field's value where no kernel reaches (unallocated space): iso, or R − r̄ for zhu-bridson.
+MENISCUS_HD inline float kernel_field_background(FieldMethod method, float radius, float iso) {
+  return method == FieldMethod::zhu_bridson ? radius - iso : iso;
+}
+
+/// The kernels' support: R, or R·max σ̃₁ over the particles for anisotropic ones.
+MENISCUS_HD inline float kernel_field_support(FieldMethod method, float radius, float max_axis) {
+  if (method != FieldMethod::anisotropic) return radius;
+  return radius * (max_axis < 1e-3f ? 1e-3f : max_axis);  // std::max(max_axis, 1e-3f)
+}
 
 /// How far particle i reaches: R, or R·σ̃₁ for an anisotropic kernel.
 MENISCUS_HD inline float kernel_reach(const KernelParticles& k, uint32_t i) {

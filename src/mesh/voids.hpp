@@ -10,6 +10,14 @@
 
 namespace meniscus {
 
+/// The volume under which a closed component counts as small (a void or a blob): (2d)³ for
+/// particle spacing d.
+inline double small_component_volume(double spacing) { return 8 * spacing * spacing * spacing; }
+/// A particle's inner ball, 4/3·π·r_inner³ (remove_unsupported_blobs' min_volume).
+inline double inner_ball_volume(double r_inner) {
+  return 4.0 / 3.0 * 3.14159265358979323846 * r_inner * r_inner * r_inner;
+}
+
 /// Removes every connected component (by shared edges) whose signed volume is in
 /// (−max_volume, 0], then drops the vertices no triangle uses (order otherwise preserved).
 /// Returns the number of components removed.

@@ -86,6 +86,10 @@ class DeviceBuffer {
   std::size_t size_ = 0;
 };
 
+/// A grid-stride loop over [0, n) in a kernel (64-bit index i).
+#define MENISCUS_GRID_STRIDE(i, n) \
+  for (uint64_t i = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; i < (n); i += uint64_t(gridDim.x) * blockDim.x)
+
 /// Blocks for a grid-stride loop over n elements (at least 1, capped; kernels loop).
 inline unsigned blocks_for(std::size_t n, unsigned threads = 256) {
   const std::size_t b = (n + threads - 1) / threads;

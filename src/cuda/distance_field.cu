@@ -86,11 +86,19 @@ __global__ void kernel_field_kernel(GridView grid, KernelParticles k, const uint
   }
 }
 
-void upload_sample_offsets(const SampleLattice& lattice) {
+/// A field of `block_count` blocks (values not yet written), with the lattice's sample offsets
+/// uploaded for the kernels that fill it.
+DeviceField new_field(const SampleLattice& lattice, float background, std::size_t block_count) {
   float offsets[8][3] = {};
   for (int s = 0; s < lattice.samples_per_cell(); ++s)
     for (int a = 0; a < 3; ++a) offsets[s][a] = lattice.sample_offset(s)[a];
   MENISCUS_CUDA_CHECK(cudaMemcpyToSymbol(c_sample_offsets, offsets, sizeof(offsets)));
+  DeviceField f;
+  f.lattice = lattice;
+  f.background = background;
+  f.blocks = uint32_t(block_count);
+  f.values.resize(block_count * kBlockSamples);
+  return f;
 }
 
 }  // namespace
@@ -115,12 +123,7 @@ DeviceBuffer<uint64_t> band_blocks(const DeviceGrid& grid, const SampleLattice& 
 
 DeviceField distance_field(const DeviceGrid& grid, const SampleLattice& lattice, float band,
                            DeviceBuffer<uint64_t> keys, std::size_t block_count) {
-  upload_sample_offsets(lattice);
-  DeviceField f;
-  f.lattice = lattice;
-  f.background = band;
-  f.blocks = uint32_t(block_count);
-  f.values.resize(block_count * kBlockSamples);
+  DeviceField f = new_field(lattice, band, block_count);
   if (block_count > 0) {
     distance_kernel<<<unsigned(block_count), 128>>>(grid.view(), keys.data(), lattice.block_cells(),
                                                     lattice.samples_per_cell(), lattice.cell_size, band,
@@ -133,12 +136,7 @@ DeviceField distance_field(const DeviceGrid& grid, const SampleLattice& lattice,
 
 DeviceField kernel_field(const DeviceGrid& grid, const SampleLattice& lattice, const KernelParticles& k, float support,
                          float iso, float background, DeviceBuffer<uint64_t> keys, std::size_t block_count) {
-  upload_sample_offsets(lattice);
-  DeviceField f;
-  f.lattice = lattice;
-  f.background = background;
-  f.blocks = uint32_t(block_count);
-  f.values.resize(block_count * kBlockSamples);
+  DeviceField f = new_field(lattice, background, block_count);
   if (block_count > 0) {
     kernel_field_kernel<<<unsigned(block_count), 128>>>(grid.view(), k, keys.data(), lattice.block_cells(),
                                                         lattice.samples_per_cell(), lattice.cell_size, support, iso,

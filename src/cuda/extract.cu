@@ -24,7 +24,7 @@ __constant__ float c_offsets[8][3];
 
 __global__ void masks_kernel(const float* values, uint64_t samples, int spc, float iso, uint8_t* masks) {
   const uint64_t cells = samples / uint64_t(spc);
-  for (uint64_t c = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; c < cells; c += uint64_t(gridDim.x) * blockDim.x) {
+  MENISCUS_GRID_STRIDE(c, cells) {
     unsigned bits = 0;
     for (int s = 0; s < spc; ++s) bits |= unsigned(values[c * spc + s] < iso) << s;
     masks[c] = uint8_t(bits);
@@ -116,19 +116,19 @@ __global__ void march_kernel(const uint64_t* march_keys, const uint64_t* field_k
 }
 
 __global__ void index_kernel(uint32_t* v, uint64_t n) {
-  for (uint64_t i = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; i < n; i += uint64_t(gridDim.x) * blockDim.x)
+  MENISCUS_GRID_STRIDE(i, n)
     v[i] = uint32_t(i);
 }
 
 __global__ void weld_heads_kernel(const uint64_t* keys, uint64_t n, uint32_t* heads) {
-  for (uint64_t i = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; i < n; i += uint64_t(gridDim.x) * blockDim.x)
+  MENISCUS_GRID_STRIDE(i, n)
     heads[i] = (i == 0 || keys[i] != keys[i - 1]) ? 1u : 0u;
 }
 
 __global__ void weld_scatter_kernel(const uint64_t* keys, const uint32_t* corner, const uint32_t* heads,
                                     const uint32_t* vertex_of, uint64_t n, uint32_t* triangles,
                                     uint64_t* vertex_keys) {
-  for (uint64_t i = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; i < n; i += uint64_t(gridDim.x) * blockDim.x) {
+  MENISCUS_GRID_STRIDE(i, n) {
     // vertex_of is the exclusive scan of heads: the run of i is vertex (scan + head − 1).
     const uint32_t v = vertex_of[i] + heads[i] - 1;
     if (heads[i]) vertex_keys[v] = keys[i];
@@ -139,7 +139,7 @@ __global__ void weld_scatter_kernel(const uint64_t* keys, const uint32_t* corner
 __global__ void vertex_position_kernel(const uint64_t* vertex_keys, uint64_t nv, FieldView field, bool a15,
                                        float cell_size, float iso, Vec3f* vertices) {
   const LatticeEdge* types = a15 ? d_tables.a15_edges.types : d_tables.kuhn_edges.types;
-  for (uint64_t v = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; v < nv; v += uint64_t(gridDim.x) * blockDim.x) {
+  MENISCUS_GRID_STRIDE(v, nv) {
     Vec3i c0, c1;
     int s0 = 0, s1 = 0;
     edge_key_samples(vertex_keys[v], types, &c0, &s0, &c1, &s1);
@@ -154,7 +154,7 @@ __global__ void vertex_position_kernel(const uint64_t* vertex_keys, uint64_t nv,
 }
 
 __global__ void repeated_kernel(const uint32_t* tris, uint64_t nt, unsigned long long* count) {
-  for (uint64_t t = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; t < nt; t += uint64_t(gridDim.x) * blockDim.x) {
+  MENISCUS_GRID_STRIDE(t, nt) {
     const uint32_t a = tris[3 * t], b = tris[3 * t + 1], c = tris[3 * t + 2];
     if (a == b || b == c || a == c) atomicAdd(count, 1ull);
   }
@@ -289,7 +289,7 @@ __device__ uint32_t find_root(uint32_t* parent, uint32_t x) {
 
 /// Hooks the roots of each triangle's corners onto the smallest (min-label connected components).
 __global__ void hook_kernel(const uint32_t* tris, uint64_t nt, uint32_t* parent, int* changed) {
-  for (uint64_t t = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; t < nt; t += uint64_t(gridDim.x) * blockDim.x) {
+  MENISCUS_GRID_STRIDE(t, nt) {
     uint32_t r[3];
     for (int k = 0; k < 3; ++k) r[k] = find_root(parent, tris[3 * t + k]);
     uint32_t m = r[0] < r[1] ? r[0] : r[1];
@@ -303,18 +303,18 @@ __global__ void hook_kernel(const uint32_t* tris, uint64_t nt, uint32_t* parent,
 }
 
 __global__ void compress_kernel(uint32_t* parent, uint64_t nv) {
-  for (uint64_t v = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; v < nv; v += uint64_t(gridDim.x) * blockDim.x)
+  MENISCUS_GRID_STRIDE(v, nv)
     parent[v] = find_root(parent, uint32_t(v));
 }
 
 __global__ void init_parent_kernel(uint32_t* parent, uint64_t nv) {
-  for (uint64_t v = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; v < nv; v += uint64_t(gridDim.x) * blockDim.x)
+  MENISCUS_GRID_STRIDE(v, nv)
     parent[v] = uint32_t(v);
 }
 
 __global__ void volume_kernel(const uint32_t* tris, uint64_t nt, const Vec3f* x, const uint32_t* root, double* volume,
                               uint8_t* has) {
-  for (uint64_t t = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; t < nt; t += uint64_t(gridDim.x) * blockDim.x) {
+  MENISCUS_GRID_STRIDE(t, nt) {
     const Vec3f a = x[tris[3 * t]], b = x[tris[3 * t + 1]], c = x[tris[3 * t + 2]];
     const uint32_t r = root[tris[3 * t]];
     const double v = (double(a.x) * (double(b.y) * c.z - double(b.z) * c.y) -
@@ -327,7 +327,7 @@ __global__ void volume_kernel(const uint32_t* tris, uint64_t nt, const Vec3f* x,
 
 __global__ void drop_kernel(const uint32_t* root, const double* volume, const uint8_t* has, uint64_t nv,
                             double max_volume, uint8_t* drop, unsigned long long* removed) {
-  for (uint64_t v = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; v < nv; v += uint64_t(gridDim.x) * blockDim.x) {
+  MENISCUS_GRID_STRIDE(v, nv) {
     const bool d = root[v] == v && has[v] && volume[v] <= 0.0 && volume[v] > -max_volume;
     drop[v] = d ? 1 : 0;
     if (d) atomicAdd(removed, 1ull);
@@ -336,7 +336,7 @@ __global__ void drop_kernel(const uint32_t* root, const double* volume, const ui
 
 __global__ void keep_flags_kernel(const uint32_t* tris, uint64_t nt, const uint32_t* root, const uint8_t* drop,
                                   uint32_t* keep, uint32_t* used) {
-  for (uint64_t t = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; t < nt; t += uint64_t(gridDim.x) * blockDim.x) {
+  MENISCUS_GRID_STRIDE(t, nt) {
     const bool k = !drop[root[tris[3 * t]]];
     keep[t] = k ? 1u : 0u;
     if (k)
@@ -421,14 +421,14 @@ void drop_components(DeviceMesh& mesh, const DeviceBuffer<uint32_t>& root, const
 /// Flags the small outward components' roots (volume in (0, max_volume]).
 __global__ void blob_candidate_kernel(const uint32_t* root, const double* volume, const uint8_t* has, uint64_t nv,
                                       double max_volume, uint32_t* flag) {
-  for (uint64_t v = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; v < nv; v += uint64_t(gridDim.x) * blockDim.x)
+  MENISCUS_GRID_STRIDE(v, nv)
     flag[v] = root[v] == v && has[v] && volume[v] > 0.0 && volume[v] <= max_volume ? 1u : 0u;
 }
 
 /// Counts the triangles of each candidate (slot[root]: the candidate's index, from the flags' scan).
 __global__ void blob_count_kernel(const uint32_t* tris, uint64_t nt, const uint32_t* root, const uint32_t* flag,
                                   const uint32_t* slot, uint32_t* counts) {
-  for (uint64_t t = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; t < nt; t += uint64_t(gridDim.x) * blockDim.x) {
+  MENISCUS_GRID_STRIDE(t, nt) {
     const uint32_t r = root[tris[3 * t]];
     if (flag[r]) atomicAdd(&counts[slot[r]], 1u);
   }
@@ -437,7 +437,7 @@ __global__ void blob_count_kernel(const uint32_t* tris, uint64_t nt, const uint3
 /// Buckets the candidates' triangles (any order within a bucket: the blob test does not depend on it).
 __global__ void blob_fill_kernel(const uint32_t* tris, uint64_t nt, const uint32_t* root, const uint32_t* flag,
                                  const uint32_t* slot, const uint32_t* start, uint32_t* cursor, uint32_t* ids) {
-  for (uint64_t t = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; t < nt; t += uint64_t(gridDim.x) * blockDim.x) {
+  MENISCUS_GRID_STRIDE(t, nt) {
     const uint32_t r = root[tris[3 * t]];
     if (flag[r]) ids[start[slot[r]] + atomicAdd(&cursor[slot[r]], 1u)] = uint32_t(t);
   }
@@ -447,7 +447,7 @@ __global__ void blob_fill_kernel(const uint32_t* tris, uint64_t nt, const uint32
 __global__ void blob_test_kernel(GridView grid, const uint32_t* tris, const Vec3f* x, const uint32_t* candidates,
                                  uint32_t count, const uint32_t* start, const uint32_t* ids, const double* volume,
                                  double min_volume, uint8_t* drop, unsigned long long* removed) {
-  for (uint64_t k = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; k < count; k += uint64_t(gridDim.x) * blockDim.x) {
+  MENISCUS_GRID_STRIDE(k, count) {
     const uint32_t r = candidates[k];
     const bool empty = volume[r] <= min_volume || !encloses_a_point(grid, tris, ids + start[k], start[k + 1] - start[k], x);
     if (empty) {
@@ -458,7 +458,7 @@ __global__ void blob_test_kernel(GridView grid, const uint32_t* tris, const Vec3
 }
 
 __global__ void candidate_list_kernel(const uint32_t* flag, const uint32_t* slot, uint64_t nv, uint32_t* candidates) {
-  for (uint64_t v = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; v < nv; v += uint64_t(gridDim.x) * blockDim.x)
+  MENISCUS_GRID_STRIDE(v, nv)
     if (flag[v]) candidates[slot[v]] = uint32_t(v);
 }
 

@@ -13,9 +13,6 @@ namespace meniscus::cuda {
 
 namespace {
 
-#define MENISCUS_GRID_STRIDE(i, n) \
-  for (uint64_t i = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; i < (n); i += uint64_t(gridDim.x) * blockDim.x)
-
 /// A float as an int with the same order (for atomicMin/atomicMax; min and max do not depend on
 /// the order of the updates, so the result is exact and deterministic).
 __device__ inline int ordered_bits(float f) {

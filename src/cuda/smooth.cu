@@ -18,9 +18,6 @@ namespace meniscus::cuda {
 
 namespace {
 
-#define MENISCUS_GRID_STRIDE(i, n) \
-  for (uint64_t i = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; i < (n); i += uint64_t(gridDim.x) * blockDim.x)
-
 // --- adjacency ----------------------------------------------------------------------------------
 
 __global__ void corner_keys_kernel(const uint32_t* tris, uint64_t corners, uint32_t* keys, uint32_t* tri_of,

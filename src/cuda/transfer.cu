@@ -7,9 +7,6 @@ namespace meniscus::cuda {
 
 namespace {
 
-#define MENISCUS_GRID_STRIDE(i, n) \
-  for (uint64_t i = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; i < (n); i += uint64_t(gridDim.x) * blockDim.x)
-
 __device__ Vec3f face_cross(const Vec3f* x, const uint32_t* t) { return cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]); }
 
 __global__ void normals_kernel(const Vec3f* x, const uint32_t* tris, const uint32_t* tri_offsets,

@@ -2,7 +2,6 @@
 // keys (vertex_order_impl.hpp), the same stable sorts, so both backends number the vertices and
 // order the triangles identically.
 #include <algorithm>
-#include <cstring>
 
 #include "cuda/primitives.hpp"
 #include "cuda/stages_cuda.hpp"
@@ -11,33 +10,6 @@
 namespace meniscus::cuda {
 
 namespace {
-
-#define MENISCUS_GRID_STRIDE(i, n) \
-  for (uint64_t i = blockIdx.x * uint64_t(blockDim.x) + threadIdx.x; i < (n); i += uint64_t(gridDim.x) * blockDim.x)
-
-/// An unsigned integer with the order of the float (exact, so atomic min/max give the CPU's box).
-__device__ uint32_t ordered_bits(float f) {
-  const uint32_t u = __float_as_uint(f);
-  return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
-}
-float from_ordered_bits(uint32_t u) {
-  const uint32_t bits = (u & 0x80000000u) ? (u & 0x7FFFFFFFu) : ~u;
-  float f;
-  std::memcpy(&f, &bits, sizeof f);
-  return f;
-}
-
-__global__ void box_kernel(const Vec3f* x, uint64_t n, uint32_t* box) {
-  MENISCUS_GRID_STRIDE(i, n) {
-    const Vec3f p = x[i];
-    atomicMin(&box[0], ordered_bits(p.x));
-    atomicMin(&box[1], ordered_bits(p.y));
-    atomicMin(&box[2], ordered_bits(p.z));
-    atomicMax(&box[3], ordered_bits(p.x));
-    atomicMax(&box[4], ordered_bits(p.y));
-    atomicMax(&box[5], ordered_bits(p.z));
-  }
-}
 
 __global__ void morton_kernel(const Vec3f* x, uint64_t n, Vec3f lo, float scale, uint32_t* keys, uint32_t* ids) {
   MENISCUS_GRID_STRIDE(i, n) {
@@ -82,15 +54,8 @@ __global__ void gather_triangles_kernel(const uint32_t* tris, const uint32_t* or
 void reorder_vertices_spatially(DeviceMesh& mesh) {
   const std::size_t nv = mesh.vertex_count, nt = mesh.triangle_count;
   if (nv < 2) return;
-  DeviceBuffer<uint32_t> box(6);
-  const uint32_t init[6] = {0xFFFFFFFFu, 0xFFFFFFFFu, 0xFFFFFFFFu, 0, 0, 0};
-  box.upload(init, 6);
-  box_kernel<<<blocks_for(nv), 256>>>(mesh.vertices.data(), nv, box.data());
-  MENISCUS_CUDA_CHECK(cudaGetLastError());
-  uint32_t host_box[6];
-  MENISCUS_CUDA_CHECK(cudaMemcpy(host_box, box.data(), sizeof host_box, cudaMemcpyDeviceToHost));
-  const Vec3f lo{from_ordered_bits(host_box[0]), from_ordered_bits(host_box[1]), from_ordered_bits(host_box[2])};
-  const Vec3f hi{from_ordered_bits(host_box[3]), from_ordered_bits(host_box[4]), from_ordered_bits(host_box[5])};
+  Vec3f lo, hi;  // exact min and max, so the CPU's box
+  point_bounds(mesh.vertices, uint32_t(nv), &lo, &hi);
   const float scale = morton_scale(lo, hi);
 
   DeviceBuffer<uint32_t> keys(std::max(nv, nt)), ids(std::max(nv, nt)), new_of_old(nv);

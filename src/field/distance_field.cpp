@@ -42,14 +42,42 @@ std::vector<uint64_t> band_blocks(const HashGrid& grid, const SampleLattice& lat
 
 namespace {
 
+/// The distinct sample offsets of a lattice on each axis (A15: 0, 1/4, 1/2, 3/4 of a cell; cubic:
+/// 0) and which of them each sub-lattice uses: a particle's ranges and squared deltas depend on
+/// the axis offset only, so they are computed once per distinct offset instead of once per
+/// sub-lattice (8 on the A15 lattice, 4 distinct values per axis).
+struct AxisOffsets {
+  int count[3] = {0, 0, 0};
+  float value[3][8] = {};
+  int of_sample[8][3] = {};
+  explicit AxisOffsets(const SampleLattice& lattice) {
+    for (int s = 0; s < lattice.samples_per_cell(); ++s) {
+      const Vec3f off = lattice.sample_offset(s);
+      for (int ax = 0; ax < 3; ++ax) {
+        int k = 0;
+        while (k < count[ax] && value[ax][k] != off[ax]) ++k;
+        if (k == count[ax]) value[ax][count[ax]++] = off[ax];
+        of_sample[s][ax] = k;
+      }
+    }
+  }
+};
+
+/// row[x] = min(row[x], dx2[x] + dyz) over a row of N samples: kept apart, with restrict, so the
+/// compiler emits one vector add and min per four samples.
+template <int N>
+inline void min_row(float* __restrict row, const float* __restrict dx2, float dyz) {
+  for (int x = 0; x < N; ++x) row[x] = std::min(row[x], dx2[x] + dyz);
+}
+
 /// The scatter of one block, rows of N samples (N = the block's cells per edge) kept as
 /// contiguous vectors: scratch layout [s][z][y][x], so the innermost update is one short vector
-/// min that the compiler vectorizes (a row of the A15 block is exactly four floats). A particle
-/// reaches the samples of its band box (the same test as the CUDA gather, so both backends get
-/// the same samples); the rows of the box whose (y, z) part already exceeds the band are skipped.
+/// min (a row of the A15 block is exactly four floats). A particle reaches the samples of its
+/// band box (the same test as the CUDA gather, so both backends get the same samples); the rows
+/// of the box whose (y, z) part already exceeds the band are skipped.
 template <int N>
-void scatter_block(const HashGrid& grid, const SampleLattice& lattice, float band, std::span<const Vec3f> points,
-                   Vec3i origin, float* d2) {
+void scatter_block(const HashGrid& grid, const SampleLattice& lattice, const AxisOffsets& offsets, float band,
+                   std::span<const Vec3f> points, Vec3i origin, float* d2) {
   const int spc = lattice.samples_per_cell();
   const float a = lattice.cell_size;
   const float inv_a = 1.0f / a;
@@ -57,6 +85,13 @@ void scatter_block(const HashGrid& grid, const SampleLattice& lattice, float ban
   constexpr float kInf = std::numeric_limits<float>::infinity();
   const Vec3f box_lo = Vec3f{float(origin.x), float(origin.y), float(origin.z)} * a;
   const Vec3f box_hi = box_lo + Vec3f{1, 1, 1} * (a * float(N));
+  // Per axis and distinct offset: the clipped cell range of the particle's band box and the
+  // squared deltas of its cells (x: +inf outside the range, so the row min leaves those samples).
+  struct Axis {
+    int32_t lo, hi;
+    alignas(16) float d2[N];
+  };
+  Axis axes[3][8];
   grid.for_each_in_cells_of_box(box_lo - Vec3f{band, band, band}, box_hi + Vec3f{band, band, band}, [&](uint32_t pi) {
     const Vec3f p = points[pi];
     // Every sample of the block lies in [box_lo, box_hi]: a particle whose band sphere misses
@@ -68,36 +103,28 @@ void scatter_block(const HashGrid& grid, const SampleLattice& lattice, float ban
       gap2 += g * g;
     }
     if (gap2 > band2 * (1.0f + 1e-4f)) return;
-    for (int s = 0; s < spc; ++s) {
-      const Vec3f off = lattice.sample_offset(s);
-      // Cells whose sample s lies within the band box of p, clipped to this block.
-      int32_t lo[3], hi[3];
-      bool empty = false;
-      for (int ax = 0; ax < 3; ++ax) {
-        particle_cell_range(p[ax], band, inv_a, off[ax], &lo[ax], &hi[ax]);
-        lo[ax] = std::max(lo[ax], origin[ax]) - origin[ax];
-        hi[ax] = std::min(hi[ax], origin[ax] + N - 1) - origin[ax];
-        empty |= lo[ax] > hi[ax];
-      }
-      if (empty) continue;
-      // dx² of the whole row, +inf outside the box (so the min leaves those samples).
-      float dx2[N];
-      for (int x = 0; x < N; ++x) {
-        const float dx = sample_delta(origin.x + x, off.x, a, p.x);
-        dx2[x] = (x >= lo[0] && x <= hi[0]) ? dx * dx : kInf;
-      }
-      float* plane = d2 + std::size_t(s) * N * N * N;
-      for (int32_t z = lo[2]; z <= hi[2]; ++z) {
-        const float dz = sample_delta(origin.z + z, off.z, a, p.z);
-        for (int32_t y = lo[1]; y <= hi[1]; ++y) {
-          const float dy = sample_delta(origin.y + y, off.y, a, p.y);
-          const float dyz = dy * dy + dz * dz;
-          if (dyz > band2 * (1.0f + 1e-5f)) continue;  // dx² + dyz > band² on the whole row
-          float* row = plane + (z * N + y) * N;
-          // sample_dist2's order: dx² added onto the (y, z) part.
-          for (int x = 0; x < N; ++x) row[x] = std::min(row[x], dx2[x] + dyz);
+    for (int ax = 0; ax < 3; ++ax)
+      for (int k = 0; k < offsets.count[ax]; ++k) {
+        Axis& e = axes[ax][k];
+        const float off = offsets.value[ax][k];
+        particle_cell_range(p[ax], band, inv_a, off, &e.lo, &e.hi);
+        e.lo = std::max(e.lo, origin[ax]) - origin[ax];
+        e.hi = std::min(e.hi, origin[ax] + N - 1) - origin[ax];
+        for (int x = 0; x < N; ++x) {
+          const float d = sample_delta(origin[ax] + x, off, a, p[ax]);
+          e.d2[x] = ax == 0 && (x < e.lo || x > e.hi) ? kInf : d * d;
         }
       }
+    for (int s = 0; s < spc; ++s) {
+      const Axis& ex = axes[0][offsets.of_sample[s][0]];
+      const Axis& ey = axes[1][offsets.of_sample[s][1]];
+      const Axis& ez = axes[2][offsets.of_sample[s][2]];
+      if (ex.lo > ex.hi || ey.lo > ey.hi || ez.lo > ez.hi) continue;
+      float* plane = d2 + std::size_t(s) * N * N * N;
+      // Rows whose (y, z) part alone exceeds band² change nothing (the scratch starts at band²).
+      for (int32_t z = ez.lo; z <= ez.hi; ++z)
+        for (int32_t y = ey.lo; y <= ey.hi; ++y)  // sample_dist2's order: dx² added onto the (y, z) part
+          min_row<N>(plane + (z * N + y) * N, ex.d2, ey.d2[y] + ez.d2[z]);
     }
   });
 }
@@ -111,6 +138,7 @@ SparseField distance_field(const HashGrid& grid, const SampleLattice& lattice, f
   const int spc = lattice.samples_per_cell();
   const float band2 = band * band;
   const auto points = grid.sorted_points();
+  const AxisOffsets offsets(lattice);
 
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, field.block_count(), 4), [&](const auto& r) {
     alignas(64) std::array<float, kBlockSamples> d2;
@@ -118,9 +146,9 @@ SparseField distance_field(const HashGrid& grid, const SampleLattice& lattice, f
       d2.fill(band2);
       const Vec3i origin = field.block_origin(b);
       if (n == 4)
-        scatter_block<4>(grid, lattice, band, points, origin, d2.data());
+        scatter_block<4>(grid, lattice, offsets, band, points, origin, d2.data());
       else
-        scatter_block<8>(grid, lattice, band, points, origin, d2.data());
+        scatter_block<8>(grid, lattice, offsets, band, points, origin, d2.data());
       // Transpose [s][z][y][x] into the field's cell-major layout, clamped to the band.
       auto values = field.block_values(b);
       const int cells = n * n * n;

@@ -5,6 +5,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
@@ -42,11 +43,40 @@ void for_each_set(const std::vector<uint8_t>& flags, const std::vector<std::size
   });
 }
 
+/// Moves the elements whose flag is set (groups of `per` values, flags.size() groups) to the front
+/// of `values`, in order, and shrinks it to them; `offsets` as chunk_offsets made them. In place:
+/// each chunk first packs its own elements to its front (parallel), then the packed chunks slide
+/// down in chunk order (a chunk's target never reaches past its own start), so no second copy of
+/// a mesh array is ever allocated — the arrays of a splash frame run to hundreds of MB, while
+/// the components dropped are a few.
+template <class T>
+void compact_in_place(std::vector<T>& values, std::size_t per, const std::vector<uint8_t>& flags,
+                      const std::vector<std::size_t>& offsets) {
+  if (values.empty()) return;
+  const std::size_t chunks = offsets.size() - 1;
+  const auto at = [&](std::size_t i) { return values.begin() + std::ptrdiff_t(i * per); };
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    std::size_t out = c * kCompactChunk;
+    for (std::size_t i = c * kCompactChunk, end = std::min(flags.size(), i + kCompactChunk); i < end; ++i)
+      if (flags[i]) {
+        if (out != i) std::copy(at(i), at(i + 1), at(out));
+        ++out;
+      }
+  });
+  for (std::size_t c = 0; c < chunks; ++c) {
+    const std::size_t from = c * kCompactChunk, to = offsets[c], count = offsets[c + 1] - offsets[c];
+    if (from != to && count > 0)
+      std::copy(at(from), at(from + count), at(to));  // to < from: a forward copy is safe
+  }
+  values.resize(offsets[chunks] * per);
+}
+
 }  // namespace detail
 
 /// Keeps the triangles t with keep(t) (in order), then drops the vertices no kept triangle uses
-/// (in order; normals and per-vertex attributes follow). Parallel, and the result does not depend
-/// on the thread count. Returns the number of triangles dropped (none: the mesh is left as it is).
+/// (in order; normals and per-vertex attributes follow). Parallel and in place, and the result
+/// does not depend on the thread count. Returns the number of triangles dropped (none: the mesh
+/// is left as it is).
 template <class Keep>
 std::size_t keep_triangles(TriangleMesh& mesh, Keep&& keep) {
   const std::size_t nt = mesh.triangles.size(), nv = mesh.vertices.size();
@@ -61,29 +91,19 @@ std::size_t keep_triangles(TriangleMesh& mesh, Keep&& keep) {
   std::vector<std::size_t> offsets;
   const std::size_t new_nt = detail::chunk_offsets(kept, offsets);
   if (new_nt == nt) return 0;
-  std::vector<Triangle> triangles(new_nt);
-  detail::for_each_set(kept, offsets, [&](std::size_t t, std::size_t k) { triangles[k] = mesh.triangles[t]; });
-  std::vector<Triangle>().swap(mesh.triangles);
+  detail::compact_in_place(mesh.triangles, 1, kept, offsets);
+  std::vector<uint8_t>().swap(kept);
 
-  const std::size_t new_nv = detail::chunk_offsets(used, offsets);
+  detail::chunk_offsets(used, offsets);
   std::vector<uint32_t> remap(nv, ~0u);
   detail::for_each_set(used, offsets, [&](std::size_t v, std::size_t k) { remap[v] = uint32_t(k); });
-  auto compact = [&](auto& values, std::size_t per_vertex) {
-    if (values.empty()) return;
-    std::remove_reference_t<decltype(values)> out(new_nv * per_vertex);
-    detail::for_each_set(used, offsets, [&](std::size_t v, std::size_t k) {
-      for (std::size_t j = 0; j < per_vertex; ++j) out[k * per_vertex + j] = values[v * per_vertex + j];
-    });
-    values.swap(out);
-  };
-  compact(mesh.vertices, 1);
-  compact(mesh.normals, 1);
-  for (Attribute& a : mesh.attributes) compact(a.values, std::size_t(a.components));
+  detail::compact_in_place(mesh.vertices, 1, used, offsets);
+  detail::compact_in_place(mesh.normals, 1, used, offsets);
+  for (Attribute& a : mesh.attributes) detail::compact_in_place(a.values, std::size_t(a.components), used, offsets);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, new_nt, 4096), [&](const auto& r) {
     for (std::size_t t = r.begin(); t != r.end(); ++t)
-      for (uint32_t& v : triangles[t]) v = remap[v];
+      for (uint32_t& v : mesh.triangles[t]) v = remap[v];
   });
-  mesh.triangles = std::move(triangles);
   return nt - new_nt;
 }
 

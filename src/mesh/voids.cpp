@@ -1,6 +1,7 @@
 // meniscus — small interior void removal.
 #include "mesh/voids.hpp"
 
+#include "common/huge_pages.hpp"
 #include "mesh/compact.hpp"
 #include "mesh/ray_parity_impl.hpp"
 
@@ -21,20 +22,23 @@ namespace {
 /// is hooked under the smaller root by compare-and-swap, finds halve their paths with plain
 /// stores (a vertex that is not a root only ever points to an ancestor, so a lost store is
 /// harmless). Whatever the interleaving, each component ends with its smallest vertex as root.
+/// Plain words behind atomic_ref: `new std::atomic<uint32_t>[n]` would zero them first (C++20),
+/// touching every page before the huge-page advice could apply.
 class ConcurrentForest {
  public:
-  explicit ConcurrentForest(std::size_t n) : parent_(new std::atomic<uint32_t>[n]) {
+  explicit ConcurrentForest(std::size_t n) : parent_(std::make_unique_for_overwrite<uint32_t[]>(n)) {
+    advise_huge_pages(parent_.get(), n * sizeof(uint32_t));
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const auto& r) {
-      for (std::size_t i = r.begin(); i != r.end(); ++i) parent_[i].store(uint32_t(i), std::memory_order_relaxed);
+      for (std::size_t i = r.begin(); i != r.end(); ++i) parent_[i] = uint32_t(i);
     });
   }
   uint32_t find(uint32_t x) const {
     for (;;) {
-      const uint32_t p = parent_[x].load(std::memory_order_relaxed);
+      const uint32_t p = at(x).load(std::memory_order_relaxed);
       if (p == x) return x;
-      const uint32_t g = parent_[p].load(std::memory_order_relaxed);
+      const uint32_t g = at(p).load(std::memory_order_relaxed);
       if (g == p) return p;
-      parent_[x].store(g, std::memory_order_relaxed);
+      at(x).store(g, std::memory_order_relaxed);
       x = g;
     }
   }
@@ -45,20 +49,27 @@ class ConcurrentForest {
       if (a == b) return;
       if (a < b) std::swap(a, b);
       uint32_t expected = a;
-      if (parent_[a].compare_exchange_strong(expected, b, std::memory_order_relaxed)) return;
+      if (at(a).compare_exchange_strong(expected, b, std::memory_order_relaxed)) return;
     }
   }
 
  private:
-  std::unique_ptr<std::atomic<uint32_t>[]> parent_;
+  std::atomic_ref<uint32_t> at(uint32_t i) const { return std::atomic_ref<uint32_t>(parent_[i]); }
+  std::unique_ptr<uint32_t[]> parent_;
 };
 
-/// Connected components by shared vertices: each vertex's root (the component's smallest
-/// vertex), and per root the signed enclosed volume and whether any triangle belongs to it.
+/// A connected component that has triangles: its root (smallest vertex) and signed enclosed volume.
+struct Component {
+  uint32_t root;
+  double volume;
+};
+
+/// Connected components by shared vertices: each vertex's root, and the components with
+/// triangles in root order (a list, not a per-vertex array: a splash frame has millions of
+/// vertices and a few thousand components).
 struct MeshComponents {
   std::vector<uint32_t> root;
-  std::vector<double> volume;
-  std::vector<uint8_t> has_triangles;
+  std::vector<Component> components;
 };
 
 MeshComponents mesh_components(const TriangleMesh& mesh) {
@@ -75,17 +86,18 @@ MeshComponents mesh_components(const TriangleMesh& mesh) {
     }
   });
   MeshComponents c;
-  c.root.resize(nv);
+  resize_huge(c.root, nv);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv), [&](const auto& r) {
     for (std::size_t v = r.begin(); v != r.end(); ++v) c.root[v] = forest.find(uint32_t(v));
   });
 
   // Signed volume per component. Fixed chunks of triangles (in the extraction's spatial order, so
-  // a chunk holds long runs of one component) sum runs locally; the runs are added up in chunk
-  // order, so the sums do not depend on the thread count.
+  // a chunk holds long runs of one component) sum runs locally; the runs, in chunk order, are
+  // stably sorted by root and added up, so each sum takes its terms in triangle order and does
+  // not depend on the thread count.
   constexpr std::size_t kChunk = std::size_t(1) << 16;
   const std::size_t chunks = (nt + kChunk - 1) / kChunk;
-  std::vector<std::vector<std::pair<uint32_t, double>>> runs(chunks);
+  std::vector<std::vector<Component>> runs(chunks);
   tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t k) {
     auto& out = runs[k];
     for (std::size_t i = k * kChunk, end = std::min(nt, i + kChunk); i < end; ++i) {
@@ -95,61 +107,57 @@ MeshComponents mesh_components(const TriangleMesh& mesh) {
                         double(a.y) * (double(b.x) * cc.z - double(b.z) * cc.x) +
                         double(a.z) * (double(b.x) * cc.y - double(b.y) * cc.x)) / 6.0;
       const uint32_t r = c.root[t[0]];
-      if (out.empty() || out.back().first != r)
-        out.emplace_back(r, v);
+      if (out.empty() || out.back().root != r)
+        out.push_back({r, v});
       else
-        out.back().second += v;
+        out.back().volume += v;
     }
   });
-  c.volume.assign(nv, 0.0);
-  c.has_triangles.assign(nv, 0);
-  for (const auto& chunk : runs)
-    for (const auto& [r, v] : chunk) {
-      c.volume[r] += v;
-      c.has_triangles[r] = 1;
-    }
+  std::vector<Component> all;
+  for (const auto& chunk : runs) all.insert(all.end(), chunk.begin(), chunk.end());
+  std::vector<std::vector<Component>>().swap(runs);
+  std::stable_sort(all.begin(), all.end(), [](const Component& a, const Component& b) { return a.root < b.root; });
+  for (const Component& run : all)
+    if (c.components.empty() || c.components.back().root != run.root)
+      c.components.push_back({run.root, 0.0 + run.volume});
+    else
+      c.components.back().volume += run.volume;
   return c;
 }
 
-/// Removes the triangles of the components whose root has drop[root] set, then the vertices no
-/// triangle uses (order otherwise preserved; normals and attributes follow if present).
-void drop_components(TriangleMesh& mesh, const std::vector<uint32_t>& root, const std::vector<uint8_t>& drop) {
+/// Removes the triangles of the components whose root is in `roots`, then the vertices
+/// no triangle uses (order otherwise preserved; normals and attributes follow if present).
+void drop_components(TriangleMesh& mesh, const std::vector<uint32_t>& root, const std::vector<uint32_t>& roots) {
+  std::vector<uint8_t> drop(mesh.vertices.size(), 0);
+  for (uint32_t r : roots) drop[r] = 1;
   keep_triangles(mesh, [&](const Triangle& t) { return !drop[root[t[0]]]; });
 }
 
 }  // namespace
 
 std::size_t remove_small_voids(TriangleMesh& mesh, double max_volume) {
-  const std::size_t nv = mesh.vertices.size();
   const MeshComponents c = mesh_components(mesh);
-  std::vector<uint8_t> drop(nv, 0);
-  std::size_t removed = 0;
-  for (uint32_t v = 0; v < nv; ++v)
-    if (c.root[v] == v && c.has_triangles[v] && c.volume[v] <= 0.0 && c.volume[v] > -max_volume) {
-      drop[v] = 1;
-      ++removed;
-    }
-  if (removed > 0) drop_components(mesh, c.root, drop);
-  return removed;
+  std::vector<uint32_t> voids;
+  for (const Component& k : c.components)
+    if (k.volume <= 0.0 && k.volume > -max_volume) voids.push_back(k.root);
+  if (!voids.empty()) drop_components(mesh, c.root, voids);
+  return voids.size();
 }
 
 std::size_t remove_unsupported_blobs(TriangleMesh& mesh, const HashGrid& particles, double max_volume,
                                      double min_volume) {
-  const std::size_t nv = mesh.vertices.size();
   const MeshComponents c = mesh_components(mesh);
   // The small outward components, and their triangles bucketed by component.
-  std::vector<uint32_t> candidate_of(nv, kNotFound);
-  std::vector<uint32_t> roots;
-  for (uint32_t v = 0; v < nv; ++v)
-    if (c.root[v] == v && c.has_triangles[v] && c.volume[v] > 0.0 && c.volume[v] <= max_volume) {
-      candidate_of[v] = uint32_t(roots.size());
-      roots.push_back(v);
-    }
-  if (roots.empty()) return 0;
-  std::vector<uint32_t> start(roots.size() + 1, 0);
+  std::vector<const Component*> candidates;
+  for (const Component& k : c.components)
+    if (k.volume > 0.0 && k.volume <= max_volume) candidates.push_back(&k);
+  if (candidates.empty()) return 0;
+  std::vector<uint32_t> candidate_of(mesh.vertices.size(), kNotFound);
+  for (std::size_t k = 0; k < candidates.size(); ++k) candidate_of[candidates[k]->root] = uint32_t(k);
+  std::vector<uint32_t> start(candidates.size() + 1, 0);
   for (const Triangle& t : mesh.triangles)
     if (const uint32_t k = candidate_of[c.root[t[0]]]; k != kNotFound) ++start[k + 1];
-  for (std::size_t k = 0; k < roots.size(); ++k) start[k + 1] += start[k];
+  for (std::size_t k = 0; k < candidates.size(); ++k) start[k + 1] += start[k];
   std::vector<uint32_t> triangles(start.back());
   {
     std::vector<uint32_t> fill(start.begin(), start.end() - 1);
@@ -157,22 +165,18 @@ std::size_t remove_unsupported_blobs(TriangleMesh& mesh, const HashGrid& particl
       if (const uint32_t k = candidate_of[c.root[mesh.triangles[f][0]]]; k != kNotFound) triangles[fill[k]++] = f;
   }
 
-  std::vector<uint8_t> empty(roots.size(), 0);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, roots.size(), 16), [&](const auto& r) {
+  std::vector<uint8_t> empty(candidates.size(), 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, candidates.size(), 16), [&](const auto& r) {
     for (std::size_t k = r.begin(); k != r.end(); ++k)
-      empty[k] = c.volume[roots[k]] <= min_volume ||
+      empty[k] = candidates[k]->volume <= min_volume ||
                  !encloses_a_point(particles, mesh.triangles.data()->data(), triangles.data() + start[k],
                                    start[k + 1] - start[k], mesh.vertices.data());
   });
-  std::vector<uint8_t> drop(nv, 0);
-  std::size_t removed = 0;
-  for (std::size_t k = 0; k < roots.size(); ++k)
-    if (empty[k]) {
-      drop[roots[k]] = 1;
-      ++removed;
-    }
-  if (removed > 0) drop_components(mesh, c.root, drop);
-  return removed;
+  std::vector<uint32_t> blobs;
+  for (std::size_t k = 0; k < candidates.size(); ++k)
+    if (empty[k]) blobs.push_back(candidates[k]->root);
+  if (!blobs.empty()) drop_components(mesh, c.root, blobs);
+  return blobs.size();
 }
 
 }  // namespace meniscus

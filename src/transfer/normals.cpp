@@ -1,5 +1,6 @@
 // meniscus — area-weighted vertex normals and erosion (DESIGN §1.5).
 #include "transfer/normals.hpp"
+#include "common/huge_pages.hpp"
 
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
@@ -11,7 +12,8 @@ std::vector<Vec3f> vertex_normals(std::span<const Vec3f> x, std::span<const Tria
   // One serial pass scattering each triangle's (area-weighted) cross product onto its corners:
   // cheaper than building the vertex → triangle incidence for a parallel gather, and the sums
   // come out in the same order every time.
-  std::vector<Vec3f> n(x.size(), Vec3f{0, 0, 0});
+  std::vector<Vec3f> n;
+  assign_huge(n, x.size(), Vec3f{0, 0, 0});
   for (const Triangle& t : triangles) {
     const Vec3f c = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
     n[t[0]] += c;

@@ -1,0 +1,62 @@
+// meniscus — transparent huge pages for the large arrays of a run (Linux; elsewhere a no-op).
+//
+// The mesh arrays, the field and the union-find of a splash frame run to hundreds of MB, touched
+// once at random (the weld's vertex numbers, the components' parents) and freshly allocated each
+// stage: with 4 KiB pages every stage pays a page fault per 4 KiB and a TLB miss on most random
+// accesses. Where the system leaves THP to the program (`madvise` mode, Debian's default), asking
+// for it on these arrays cuts the void pass by about a third and the normals by a third on
+// splash 1M (bench/RESULTS.md). glibc's own switch (GLIBC_TUNABLES=glibc.malloc.hugetlb=1) is
+// read at process start only, so a library cannot set it; advising the arrays itself can.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
+namespace meniscus {
+
+/// Arrays below this size keep ordinary pages (a huge page is 2 MiB; small arrays gain nothing).
+inline constexpr std::size_t kHugePageMinBytes = std::size_t(8) << 20;
+
+/// Asks the kernel to back the whole 2 MiB pages inside [data, data + bytes) with huge pages.
+/// Only a hint: it fails quietly where THP is off or unsupported, and it changes no values. It
+/// pays only on memory not touched yet (call it between allocation and first write).
+inline void advise_huge_pages(void* data, std::size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  if (bytes < kHugePageMinBytes || data == nullptr) return;
+  constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
+  const std::uintptr_t begin = (reinterpret_cast<std::uintptr_t>(data) + kHuge - 1) & ~(kHuge - 1);
+  const std::uintptr_t end = (reinterpret_cast<std::uintptr_t>(data) + bytes) & ~(kHuge - 1);
+  if (end > begin) (void)madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+#else
+  (void)data;
+  (void)bytes;
+#endif
+}
+
+/// v.resize(n) for an empty vector, with the new storage advised for huge pages before the
+/// value-initialisation touches it. A vector that already holds storage is just resized.
+template <class T, class A>
+void resize_huge(std::vector<T, A>& v, std::size_t n) {
+  if (v.capacity() == 0) {
+    v.reserve(n);
+    advise_huge_pages(v.data(), n * sizeof(T));
+  }
+  v.resize(n);
+}
+
+/// The same for v.assign(n, value).
+template <class T, class A>
+void assign_huge(std::vector<T, A>& v, std::size_t n, const T& value) {
+  if (v.capacity() == 0) {
+    v.reserve(n);
+    advise_huge_pages(v.data(), n * sizeof(T));
+  }
+  v.assign(n, value);
+}
+
+}  // namespace meniscus

@@ -1,0 +1,109 @@
+// Tests of the in-place triangle/vertex compaction (mesh/compact.hpp) against a plain serial
+// filter, over many chunks, with normals and a two-component attribute carried along.
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <random>
+
+#include "mesh/compact.hpp"
+
+namespace meniscus {
+namespace {
+
+TriangleMesh random_mesh(std::size_t vertices, std::size_t triangles, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<uint32_t> pick(0, uint32_t(vertices - 1));
+  TriangleMesh m;
+  for (std::size_t v = 0; v < vertices; ++v) {
+    m.vertices.push_back({float(v), float(v) * 0.5f, -float(v)});
+    m.normals.push_back({0, 0, float(v)});
+  }
+  Attribute a;
+  a.name = "uv";
+  a.components = 2;
+  for (std::size_t v = 0; v < vertices; ++v) {
+    a.values.push_back(float(v));
+    a.values.push_back(-float(v));
+  }
+  m.attributes.push_back(a);
+  // Triangles mostly local (as the extraction makes them), some far-reaching.
+  for (std::size_t t = 0; t < triangles; ++t) {
+    const uint32_t v0 = uint32_t(t * vertices / triangles);
+    const uint32_t v1 = t % 7 == 0 ? pick(rng) : std::min(uint32_t(vertices - 1), v0 + 1);
+    const uint32_t v2 = t % 11 == 0 ? pick(rng) : std::min(uint32_t(vertices - 1), v0 + 2);
+    m.triangles.push_back({v0, v1, v2});
+  }
+  return m;
+}
+
+/// The obvious serial filter: kept triangles in order, then the used vertices in order.
+TriangleMesh reference_keep(const TriangleMesh& m, const std::vector<uint8_t>& keep) {
+  TriangleMesh out;
+  std::vector<uint8_t> used(m.vertices.size(), 0);
+  for (std::size_t t = 0; t < m.triangles.size(); ++t)
+    if (keep[t])
+      for (uint32_t v : m.triangles[t]) used[v] = 1;
+  std::vector<uint32_t> remap(m.vertices.size(), ~0u);
+  out.attributes.push_back(Attribute{"uv", 2, false, {}});
+  for (std::size_t v = 0; v < m.vertices.size(); ++v)
+    if (used[v]) {
+      remap[v] = uint32_t(out.vertices.size());
+      out.vertices.push_back(m.vertices[v]);
+      out.normals.push_back(m.normals[v]);
+      out.attributes[0].values.push_back(m.attributes[0].values[2 * v]);
+      out.attributes[0].values.push_back(m.attributes[0].values[2 * v + 1]);
+    }
+  for (std::size_t t = 0; t < m.triangles.size(); ++t)
+    if (keep[t]) out.triangles.push_back({remap[m.triangles[t][0]], remap[m.triangles[t][1]], remap[m.triangles[t][2]]});
+  return out;
+}
+
+void expect_same(const TriangleMesh& a, const TriangleMesh& b) {
+  EXPECT_EQ(a.triangles, b.triangles);
+  EXPECT_EQ(a.vertices, b.vertices);
+  EXPECT_EQ(a.normals, b.normals);
+  ASSERT_EQ(a.attributes.size(), 1u);
+  EXPECT_EQ(a.attributes[0].values, b.attributes[0].values);
+}
+
+TEST(Compact, KeepTrianglesMatchesASerialFilterOverManyChunks) {
+  // 5 chunks of triangles and 3 of vertices; drop patterns: none at the start (the first chunks
+  // stay where they are), runs across chunk edges, isolated ones, and a whole chunk.
+  const std::size_t nv = 3 * detail::kCompactChunk - 17, nt = 5 * detail::kCompactChunk + 5;
+  const TriangleMesh original = random_mesh(nv, nt, 3);
+  std::vector<uint8_t> keep(nt, 1);
+  std::mt19937 rng(8);
+  for (std::size_t t = detail::kCompactChunk + 100; t < nt; ++t) keep[t] = rng() % 9 != 0;
+  for (std::size_t t = 2 * detail::kCompactChunk - 50; t < 2 * detail::kCompactChunk + 70; ++t) keep[t] = 0;
+  for (std::size_t t = 3 * detail::kCompactChunk; t < 4 * detail::kCompactChunk; ++t) keep[t] = 0;
+  const TriangleMesh expected = reference_keep(original, keep);
+  ASSERT_LT(expected.vertices.size(), nv);  // vertices go too
+
+  for (int threads : {1, 2, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+    TriangleMesh m = original;
+    const auto index_of = [&](const Triangle& t) { return std::size_t(&t - m.triangles.data()); };
+    const std::size_t dropped = keep_triangles(m, [&](const Triangle& t) { return keep[index_of(t)] != 0; });
+    EXPECT_EQ(dropped, nt - expected.triangles.size()) << threads;
+    expect_same(m, expected);
+  }
+}
+
+TEST(Compact, KeepingEverythingLeavesTheMeshAsItIs) {
+  TriangleMesh m = random_mesh(1000, 3000, 4);
+  const TriangleMesh before = m;
+  EXPECT_EQ(keep_triangles(m, [](const Triangle&) { return true; }), 0u);
+  expect_same(m, before);
+}
+
+TEST(Compact, DroppingEverythingEmptiesTheMesh) {
+  TriangleMesh m = random_mesh(1000, 3000, 5);
+  EXPECT_EQ(keep_triangles(m, [](const Triangle&) { return false; }), 3000u);
+  EXPECT_TRUE(m.triangles.empty());
+  EXPECT_TRUE(m.vertices.empty());
+  EXPECT_TRUE(m.normals.empty());
+  EXPECT_TRUE(m.attributes[0].values.empty());
+}
+
+}  // namespace
+}  // namespace meniscus

@@ -1,5 +1,6 @@
 // meniscus — edge weld by radix sort + unique on lattice-edge keys (Williams 2008; Edespong 2010 §4.3).
 #include "extract/weld.hpp"
+#include "common/huge_pages.hpp"
 #include "mesh/compact.hpp"
 
 #include <fmt/format.h>
@@ -9,6 +10,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <climits>
 #include <bit>
 #include <stdexcept>
 #include <vector>
@@ -47,8 +49,10 @@ struct DenseEdgeKeys {
   };
   /// The box of the base cells of `chunk_count` chunks of keys (chunk(i) → span), in parallel.
   template <class Chunk>
-  DenseEdgeKeys(std::size_t chunk_count, Chunk&& chunk) {
-    const Box box = tbb::parallel_reduce(
+  DenseEdgeKeys(std::size_t chunk_count, Chunk&& chunk) : DenseEdgeKeys(box_of(chunk_count, chunk)) {}
+  template <class Chunk>
+  static Box box_of(std::size_t chunk_count, Chunk&& chunk) {
+    return tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, chunk_count), Box{},
         [&](const tbb::blocked_range<std::size_t>& r, Box b) {
           for (std::size_t i = r.begin(); i != r.end(); ++i) b.add(chunk(i));
@@ -58,6 +62,9 @@ struct DenseEdgeKeys {
           a.add(b.lo, b.hi);
           return a;
         });
+  }
+  /// Dense keys for base cells in `box` (any box that holds them: the order is the key order).
+  explicit DenseEdgeKeys(const Box& box) {
     if (box.lo.x > box.hi.x) return;  // no keys
     lo = box.lo;
     nx = uint64_t(int64_t(box.hi.x) - box.lo.x + 1);
@@ -69,8 +76,17 @@ struct DenseEdgeKeys {
       : DenseEdgeKeys((keys.size() + kChunk - 1) / kChunk, [&](std::size_t i) {
           return keys.subspan(i * kChunk, std::min(kChunk, keys.size() - i * kChunk));
         }) {}
-  explicit DenseEdgeKeys(const MarchedCorners& m)
-      : DenseEdgeKeys(m.block_keys.size(), [&](std::size_t b) { return std::span<const uint64_t>(m.block(b)); }) {}
+  /// From the blocks alone, without reading the corners: every edge a block marched has its base
+  /// cell within 2 cells of the block (weld_blocks checks it), so the blocks with triangles,
+  /// widened by 2, bound every key.
+  explicit DenseEdgeKeys(const MarchedCorners& m) : DenseEdgeKeys(marched_box(m)) {}
+  static Box marched_box(const MarchedCorners& m) {
+    Box box;
+    const Vec3i pad{2, 2, 2}, far{m.block_cells + 1, m.block_cells + 1, m.block_cells + 1};
+    for (std::size_t b = 0; b < m.origins.size(); ++b)
+      if (m.triangle_offsets[b + 1] > m.triangle_offsets[b]) box.add(m.origins[b] - pad, m.origins[b] + far);
+    return box;
+  }
   static constexpr std::size_t kChunk = 4096;
   uint64_t dense(uint64_t key) const {
     const Vec3i c = edge_key_cell(key);
@@ -126,13 +142,46 @@ std::vector<uint64_t> unique_sorted(const std::vector<uint64_t>& sorted) {
   return unique;
 }
 
+/// The field's values for compute_vertices, remembering the last two blocks it found: vertices
+/// come in key order (z, y, x of the base cell), so consecutive edges read the same one or two
+/// blocks, and most of the hash lookups (two a vertex) are saved.
+class CachedFieldReader {
+ public:
+  explicit CachedFieldReader(const SparseField& field) : field_(field) {}
+  float value(Vec3i cell, int s) {
+    const Vec3i b = field_.block_of(cell);
+    uint32_t index;
+    if (b == block_[0]) {
+      index = index_[0];
+    } else if (b == block_[1]) {
+      index = index_[1];
+    } else {
+      index = field_.find_block(b);
+      block_[next_] = b;
+      index_[next_] = index;
+      next_ ^= 1;
+    }
+    if (index == kNotFound) return field_.background();
+    const int n = field_.lattice().block_cells();
+    return field_.block_values(index)[std::size_t(
+        field_.local_index({cell.x - b.x * n, cell.y - b.y * n, cell.z - b.z * n}, s))];
+  }
+
+ private:
+  const SparseField& field_;
+  // Block coordinates no field reaches (|coord| ≤ 2^20 in pack_coords), so the first lookups miss.
+  Vec3i block_[2] = {Vec3i{INT32_MIN, 0, 0}, Vec3i{INT32_MIN, 0, 0}};
+  uint32_t index_[2] = {kNotFound, kNotFound};
+  int next_ = 0;
+};
+
 /// Where {φ = iso} crosses the edge with this key.
-Vec3f edge_vertex(uint64_t key, const SparseField& field, float iso) {
+Vec3f edge_vertex(uint64_t key, const SparseField& field, CachedFieldReader& reader, float iso) {
   const SampleLattice& lattice = field.lattice();
   Vec3i c0, c1;
   int s0 = 0, s1 = 0;
   edge_key_samples(key, lattice.kind == SampleLattice::Kind::a15, &c0, &s0, &c1, &s1);
-  const float t = edge_parameter(field.value(c0, s0), field.value(c1, s1), iso, kEdgeClamp);
+  const float t = edge_parameter(reader.value(c0, s0), reader.value(c1, s1), iso, kEdgeClamp);
   const Vec3f p0 = lattice.sample_position(c0, s0), p1 = lattice.sample_position(c1, s1);
   return p0 + (p1 - p0) * t;
 }
@@ -153,11 +202,12 @@ void check_vertex_count(std::size_t vertices) {
 /// Vertex positions, one per distinct dense key.
 void compute_vertices(const std::vector<uint64_t>& vertex_keys, const DenseEdgeKeys& dense, const SparseField& field,
                       float iso, TriangleMesh& mesh) {
-  mesh.vertices.resize(vertex_keys.size());
+  resize_huge(mesh.vertices, vertex_keys.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertex_keys.size()),
                     [&](const tbb::blocked_range<std::size_t>& r) {
+                      CachedFieldReader reader(field);
                       for (std::size_t v = r.begin(); v != r.end(); ++v)
-                        mesh.vertices[v] = edge_vertex(dense.key(vertex_keys[v]), field, iso);
+                        mesh.vertices[v] = edge_vertex(dense.key(vertex_keys[v]), field, reader, iso);
                     });
 }
 
@@ -182,7 +232,8 @@ std::vector<uint64_t> number_runs(std::vector<uint64_t>& packed, int index_bits,
   for (std::size_t c = 0; c < chunks; ++c) first_vertex[c + 1] += first_vertex[c];
 
   check_vertex_count(first_vertex.back());
-  std::vector<uint64_t> vertex_keys(first_vertex.back());
+  std::vector<uint64_t> vertex_keys;
+  resize_huge(vertex_keys, first_vertex.back());
   const uint64_t index_mask = (uint64_t(1) << index_bits) - 1;
   tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
     std::size_t v = first_vertex[c];  // index of the next run head
@@ -213,7 +264,8 @@ void weld_packed(std::vector<uint64_t>& corner_keys, const DenseEdgeKeys& dense,
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) packed[i] = (dense.dense(packed[i]) << index_bits) | i;
   });
-  std::vector<Triangle> triangles(n / 3);
+  std::vector<Triangle> triangles;
+  resize_huge(triangles, n / 3);
   const std::vector<uint64_t> vertex_keys = number_runs(packed, index_bits, dense.bits, corner_data(triangles));
   mesh.triangles = std::move(triangles);
   compute_vertices(vertex_keys, dense, field, iso, mesh);
@@ -230,7 +282,7 @@ void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseFiel
   const std::size_t blocks = m.origins.size();
   const int span = m.block_cells + 4;  // base cells from origin − 2 to origin + n + 1
   const std::size_t slots = std::size_t(span) * std::size_t(span) * std::size_t(span) * 64;
-  mesh.triangles.resize(m.corner_count() / 3);
+  resize_huge(mesh.triangles, m.corner_count() / 3);
   uint32_t* entry_of = corner_data(mesh.triangles);  // per corner: its block-local, then global, entry
 
   struct Table {
@@ -275,7 +327,8 @@ void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseFiel
 
   const std::size_t entries = entry_offsets[blocks];
   const int index_bits = index_bits_for(entries);
-  std::vector<uint64_t> packed(entries);
+  std::vector<uint64_t> packed;
+  resize_huge(packed, entries);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
       const std::size_t first = 3 * m.triangle_offsets[b], base = entry_offsets[b];
@@ -286,7 +339,8 @@ void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseFiel
   });
   m.pages.clear();  // the corner keys: every entry is in `packed` now
   m.block_keys.clear();
-  std::vector<uint32_t> vertex_of(entries);
+  std::vector<uint32_t> vertex_of;
+  resize_huge(vertex_of, entries);
   const std::vector<uint64_t> vertex_keys = number_runs(packed, index_bits, dense.bits, vertex_of.data());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, 3 * mesh.triangles.size()),
                     [&](const tbb::blocked_range<std::size_t>& r) {

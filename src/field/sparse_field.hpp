@@ -19,7 +19,8 @@ struct SampleLattice {
   float cell_size = 1;  ///< cubic: the voxel size h; a15: the tile period a = 2h
 
   int samples_per_cell() const { return kind == Kind::cubic ? 1 : 8; }
-  int block_cells() const { return kind == Kind::cubic ? 8 : 4; }  ///< cells per block edge
+  int block_cells() const { return 1 << block_shift(); }           ///< cells per block edge
+  int block_shift() const { return kind == Kind::cubic ? 3 : 2; }  ///< log2 of block_cells()
   Vec3f sample_offset(int s) const;                                 ///< in units of cell_size
   Vec3f sample_position(Vec3i cell, int s) const {
     const Vec3f o = sample_offset(s);
@@ -72,9 +73,10 @@ class SparseField {
   uint32_t find_block(Vec3i block) const { return index_.find(pack_coords(block.x, block.y, block.z)); }
   /// Block coordinates of the block that holds `cell`.
   Vec3i block_of(Vec3i cell) const {
-    const int n = lattice_.block_cells();
-    auto div = [n](int32_t v) { return v >= 0 ? v / n : -((-v + n - 1) / n); };
-    return {div(cell.x), div(cell.y), div(cell.z)};
+    // Floor division by the block edge (4 or 8 cells, a power of two): an arithmetic shift, which
+    // C++20 defines on negative values as rounding down — no integer division on this hot path.
+    const int shift = lattice_.block_shift();
+    return {cell.x >> shift, cell.y >> shift, cell.z >> shift};
   }
   /// The field value at sample s of `cell` (background when its block is not allocated).
   float value(Vec3i cell, int s) const {

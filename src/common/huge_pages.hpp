@@ -1,12 +1,15 @@
 // meniscus — transparent huge pages for the large arrays of a run (Linux; elsewhere a no-op).
 //
-// The mesh arrays, the field and the union-find of a splash frame run to hundreds of MB, touched
-// once at random (the weld's vertex numbers, the components' parents) and freshly allocated each
-// stage: with 4 KiB pages every stage pays a page fault per 4 KiB and a TLB miss on most random
-// accesses. Where the system leaves THP to the program (`madvise` mode, Debian's default), asking
-// for it on these arrays cuts the void pass by about a third and the normals by a third on
-// splash 1M (bench/RESULTS.md). glibc's own switch (GLIBC_TUNABLES=glibc.malloc.hugetlb=1) is
-// read at process start only, so a library cannot set it; advising the arrays itself can.
+// The union-find of the void pass, the vertex positions and the normals of a splash frame run to
+// hundreds of MB and are read at random (by triangle corner): with 4 KiB pages most of those reads
+// miss the TLB. Where the system leaves THP to the program (`madvise` mode, Debian's default),
+// asking for it on these arrays cuts the void pass by about a third and the mesh write by a
+// quarter on splash 1M (bench/RESULTS.md). Arrays written once in order and then streamed (the
+// field, the march pages, the weld's keys, the radix scratch) are better off without: a huge
+// page is zeroed whole at its first touch, ahead of the writes, which then miss the cache — the
+// field and the extraction measured 10-15 % slower with it. glibc's own switch
+// (GLIBC_TUNABLES=glibc.malloc.hugetlb=1) is read at process start only, so a library cannot set
+// it, and it would apply to every array alike.
 #pragma once
 
 #include <cstddef>

@@ -1,6 +1,5 @@
 // meniscus — block-parallel two-pass marching (Williams 2008; Edespong 2010 §4.3).
 #include "extract/block_marching.hpp"
-#include "common/huge_pages.hpp"
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
@@ -38,8 +37,7 @@ void check_key_range(const SparseField& field, Vec3i block) {
 std::vector<uint8_t> cell_inside_masks(const SparseField& field, float iso) {
   const int spc = field.lattice().samples_per_cell();
   const std::size_t cells = std::size_t(kBlockSamples / spc);
-  std::vector<uint8_t> masks;
-  resize_huge(masks, field.block_count() * cells);
+  std::vector<uint8_t> masks(field.block_count() * cells);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, field.block_count()),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t b = r.begin(); b != r.end(); ++b) {
@@ -170,7 +168,6 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
       if (!gather_inside_masks(field, cell_masks, blocks[b], masks)) continue;
       if (w.pages.empty() || w.used + block_max > page_size) {
         w.pages.push_back(std::make_unique_for_overwrite<uint64_t[]>(page_size));
-        advise_huge_pages(w.pages.back().get(), page_size * sizeof(uint64_t));
         w.used = 0;
       }
       uint64_t* keys = w.pages.back().get() + w.used;

@@ -1,11 +1,10 @@
 #include "field/sparse_field.hpp"
-#include "common/huge_pages.hpp"
 
 namespace meniscus {
 
 SparseField::SparseField(SampleLattice lattice, std::vector<uint64_t> block_keys, float background)
     : lattice_(lattice), block_keys_(std::move(block_keys)), background_(background) {
-  assign_huge(values_, block_keys_.size() * kBlockSamples, background);
+  values_.assign(block_keys_.size() * kBlockSamples, background);
   index_.build(block_keys_);
 }
 

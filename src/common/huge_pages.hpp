@@ -3,7 +3,7 @@
 // The union-find of the void pass, the vertex positions and the normals of a splash frame run to
 // hundreds of MB and are read at random (by triangle corner): with 4 KiB pages most of those reads
 // miss the TLB. Where the system leaves THP to the program (`madvise` mode, Debian's default),
-// asking for it on these arrays cuts the void pass by about a third and the mesh write by a
+// asking for it on these arrays cut the void pass by about a fifth and the mesh write by about a
 // quarter on splash 1M (bench/RESULTS.md). Arrays written once in order and then streamed (the
 // field, the march pages, the weld's keys, the radix scratch) are better off without: a huge
 // page is zeroed whole at its first touch, ahead of the writes, which then miss the cache — the

@@ -73,8 +73,9 @@ inline void min_row(float* __restrict row, const float* __restrict dx2, float dy
 /// The scatter of one block, rows of N samples (N = the block's cells per edge) kept as
 /// contiguous vectors: scratch layout [s][z][y][x], so the innermost update is one short vector
 /// min (a row of the A15 block is exactly four floats). A particle reaches the samples of its
-/// band box (the same test as the CUDA gather, so both backends get the same samples); the rows
-/// of the box whose (y, z) part already exceeds the band are skipped.
+/// band box (the same test as the CUDA gather, so both backends get the same samples). Rows of
+/// the box whose (y, z) part already exceeds the band are updated too: the scratch starts at
+/// band², so they change nothing, and a test per row cost more than it saved.
 template <int N>
 void scatter_block(const HashGrid& grid, const SampleLattice& lattice, const AxisOffsets& offsets, float band,
                    std::span<const Vec3f> points, Vec3i origin, float* d2) {

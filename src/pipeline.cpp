@@ -385,6 +385,7 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
   // on a Z-ordered mesh, where a vertex's ring and particle list sit near it in memory.
   if (p.steps_a + p.steps_b + p.steps_free > 0) timer.run("reorder", [&] { reorder_vertices_spatially(mesh); });
 
+  SmoothReport report;
   timer.run("smooth", [&] {
     SmoothOptions o;
     static_cast<SmoothSchedule&>(o) = smooth_schedule(p);
@@ -402,12 +403,13 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
         max_axis = std::max(max_axis, shells[i].max_axis);
       }
       const EllipsoidConstraint constraint{&grid, shells, r_inner, r_outer, max_axis};
-      smooth_surface(mesh.vertices, mesh.triangles, &constraint, o, tick);
+      report = smooth_surface(mesh.vertices, mesh.triangles, &constraint, o, tick);
     } else {
       const ShellConstraint constraint{&grid, r_inner, r_outer};
-      smooth_surface(mesh.vertices, mesh.triangles, &constraint, o, tick);
+      report = smooth_surface(mesh.vertices, mesh.triangles, &constraint, o, tick);
     }
   });
+  stats.smoothing = smoothing_stats(report);
   result.params = p;  // velocity_reference as used
 
   if (p.erode > 0)
@@ -448,6 +450,10 @@ std::string stats_to_json(const Result& result) {
   nlohmann::ordered_json stages = nlohmann::ordered_json::object();
   for (const StageTime& t : s.stages) stages[t.name] = t.seconds;
   j["stages"] = stages;
+  j["smoothing"] = {{"energy_start", s.smoothing.energy_start},
+                    {"energy_final", s.smoothing.energy_final},
+                    {"relax_halvings", s.smoothing.relax_halvings},
+                    {"relax_b_final", s.smoothing.relax_b_final}};
   nlohmann::ordered_json q;
   q["spacing"] = p.spacing;
   q["spacing_estimated"] = s.spacing_estimated;

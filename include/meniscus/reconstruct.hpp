@@ -18,6 +18,14 @@ struct StageTime {
   double seconds = 0;
 };
 
+/// What the bilaplacian (B) sweeps of the smoothing did; all zero when none ran.
+struct SmoothingStats {
+  double energy_start = 0;   ///< xᵀBx, the surface's bending energy, when the B sweeps start
+  double energy_final = 0;   ///< and after the last one (same operator)
+  int relax_halvings = 0;    ///< B sweeps redone with half the damping because the energy rose
+  double relax_b_final = 0;  ///< the damping ω of the last B sweep
+};
+
 struct Stats {
   std::size_t particles = 0;
   std::size_t vertices = 0;
@@ -31,6 +39,7 @@ struct Stats {
   int threads = 0;
   std::string backend = "cpu";         ///< the backend that ran the stages: "cpu" or "cuda"
   bool spacing_estimated = false;
+  SmoothingStats smoothing;
   std::vector<StageTime> stages;       ///< in pipeline order
   std::vector<std::string> warnings;
   double total_seconds() const;

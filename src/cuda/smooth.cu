@@ -326,9 +326,11 @@ DeviceAdjacency build_adjacency(const DeviceMesh& mesh) {
   return adj;
 }
 
-void smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGrid& grid, const SmoothSettings& o) {
+SmoothReport smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGrid& grid,
+                            const SmoothSettings& o) {
+  SmoothReport report;
   const uint64_t nv = mesh.vertex_count;
-  if (nv == 0 || o.steps_a + o.steps_b + o.steps_free == 0) return;
+  if (nv == 0 || o.steps_a + o.steps_b + o.steps_free == 0) return report;
   const bool gauss_seidel = o.solver == SmoothingSolver::gauss_seidel;
   Constraint g;
   g.grid = grid.view();
@@ -346,6 +348,7 @@ void smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGr
   if (o.steps_a > 0) {
     if (gauss_seidel) {
       const DeviceColoring colors = color_vertices(adj, nv, 1);
+      report.colors_a = colors.offsets.size() - 1;
       for (int s = 0; s < o.steps_a; ++s)
         for (std::size_t c = 0; c + 1 < colors.offsets.size(); ++c) {
           const uint32_t b = colors.offsets[c], e = colors.offsets[c + 1];
@@ -368,7 +371,7 @@ void smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGr
 
   // --- B ---
   const int steps_b = o.steps_b + o.steps_free;
-  if (steps_b <= 0) return;
+  if (steps_b <= 0) return report;
   TreeSum tree(nv);
   Operator op;
   const MeshRows rows{off, nb, adj.tri_offsets.data(), adj.tri_ids.data(), mesh.triangles.data()};
@@ -406,9 +409,13 @@ void smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGr
   };
   build();
   DeviceColoring colors;
-  if (gauss_seidel) colors = color_vertices(adj, nv, 2);
+  if (gauss_seidel) {
+    colors = color_vertices(adj, nv, 2);
+    report.colors_b = colors.offsets.size() - 1;
+  }
   float w = o.relax_b;
   double energy = energy_of();
+  report.energy_after_a = energy;
   for (int s = 0; s < steps_b; ++s) {
     const bool constrained = s < o.steps_b;
     if (o.rebuild_b > 0 && s > 0 && s % o.rebuild_b == 0) {
@@ -439,12 +446,16 @@ void smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGr
     if (e > energy * (1.0 + tolerance) && w > 1.0f / 64) {
       std::swap(mesh.vertices, backup);
       w *= 0.5f;
+      ++report.relax_halvings;
       energy_of();
       --s;
       continue;
     }
     energy = e;
   }
+  report.energy_final = energy;
+  report.relax_b_final = w;
+  return report;
 }
 
 }  // namespace meniscus::cuda

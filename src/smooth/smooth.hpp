@@ -21,14 +21,6 @@ struct SmoothOptions : SmoothSchedule {
   std::span<const float> vertex_relax;
 };
 
-struct SmoothReport {
-  double energy_after_a = 0;   ///< xᵀBx when the B sweeps start
-  double energy_final = 0;     ///< xᵀBx at the end (same operator)
-  int relax_halvings = 0;      ///< times the B damping was halved because the energy rose
-  float relax_b_final = 0;
-  std::size_t colors_a = 0, colors_b = 0;  ///< Gauss–Seidel colour classes
-};
-
 /// Runs the schedule on `x` (in place). `constraint` may be null (no projection at all).
 /// `progress` receives the completed fraction of all sweeps.
 SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> triangles,

@@ -2,6 +2,7 @@
 // backends: a vertex must lie between r_inner and r_outer from its nearest particle.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 #include "grid/hash_grid_impl.hpp"
@@ -10,6 +11,14 @@
 #include "meniscus/vec.hpp"
 
 namespace meniscus {
+
+/// How far a float position of x's magnitude may be from where it was meant to be: each
+/// coordinate rounds by up to half an ulp of the largest, √3/2 ulp in all, and an ulp is at most
+/// FLT_EPSILON times the coordinate. A point projected onto a shell lands up to this far off it.
+MENISCUS_HD inline float position_rounding(Vec3f x) {
+  constexpr float kEpsilon = 1.1920929e-7f;  // FLT_EPSILON
+  return kEpsilon * std::fmax(std::fabs(x.x), std::fmax(std::fabs(x.y), std::fabs(x.z)));
+}
 
 /// Moves x radially from the particle p onto the shell r_inner ≤ |x − p| ≤ r_outer.
 /// A vertex exactly on the particle is pushed along +z (any direction satisfies the constraint).
@@ -24,46 +33,94 @@ MENISCUS_HD inline Vec3f project_to_shell(Vec3f x, Vec3f p, float r_inner, float
   return x;
 }
 
+/// The point nearest to x on the circle where the spheres of radius r about p and q meet (x
+/// inside both balls: the crease between two overlapping inner shells); false when the spheres
+/// do not meet in a circle.
+MENISCUS_HD inline bool nearest_on_crease(Vec3f x, Vec3f p, Vec3f q, float r, Vec3f* out) {
+  const Vec3f pq = q - p;
+  const float l2 = length2(pq);
+  if (!(l2 > 0.0f) || l2 >= 4.0f * r * r) return false;
+  const float l = std::sqrt(l2);
+  const Vec3f n = pq / l;
+  const Vec3f c = p + n * (0.5f * l);                 // the circle's centre
+  const float rho = std::sqrt(r * r - 0.25f * l2);   // and radius
+  Vec3f v = x - c;
+  v -= n * dot(v, n);                                 // x's direction from the centre, in the plane
+  float v2 = length2(v);
+  if (!(v2 > 0.0f)) {                                 // x on the axis: any point of the circle
+    v = std::fabs(n.x) < 0.9f ? Vec3f{1, 0, 0} : Vec3f{0, 1, 0};
+    v -= n * dot(v, n);
+    v2 = length2(v);
+  }
+  *out = c + v * (rho / std::sqrt(v2));
+  return true;
+}
+
 /// The full projection of one vertex (Williams 2008 §4.2), shared by both backends: repeatedly
 /// project onto the shell of the current nearest particle (`nearest(y)` → NearestPoint) until the
-/// vertex lies in [r_inner, r_outer] of its nearest particle; in the rare case where the shells of
-/// two particles undo each other, search rays from the first nearest particle for a point that
-/// `clear(y)` (no particle within r_inner of y) accepts. `points` are the grid's sorted points.
+/// vertex lies in [r_inner, r_outer] of its nearest particle. A vertex pushed out of one inner
+/// shell into another (the inner shells of neighbouring particles overlap where the particles are
+/// closer than 2 r_inner: the smoothing presses vertices into the crease between them) goes to
+/// the nearest point of the crease, where radial projections would bounce between the two shells.
+/// If that does not settle it, search rays from the first nearest particle for the point nearest
+/// the vertex that `clear(y)` (no particle within r_inner of y) accepts. `points` are the grid's
+/// sorted points.
 template <class NearestFn, class ClearFn>
 MENISCUS_HD Vec3f project_with(Vec3f x, float r_inner, float r_outer, const Vec3f* points, NearestFn&& nearest,
                                ClearFn&& clear) {
   // Accept within a few ulps of the shell, and project a hair inside it: a point projected
   // exactly onto the shell measures up to an ulp outside half the time, which would otherwise
-  // send it round again.
-  const float lo2 = r_inner * r_inner * (1.0f - 4e-6f), hi2 = r_outer * r_outer * (1.0f + 4e-6f);
-  const float target_in = r_inner * (1.0f + 1e-6f), target_out = r_outer * (1.0f - 1e-6f);
-  // Each round fixes the violation against the current nearest particle; a second round is
-  // needed only where the inner shells of two particles overlap.
+  // send it round again. Far from the origin the ulp of the coordinates, not of the radii, is
+  // what a projected point is rounded to.
+  const float slop = position_rounding(x);
+  const float lo = std::fmax(r_inner * (1.0f - 2e-6f) - slop, 0.0f), hi = r_outer * (1.0f + 2e-6f) + slop;
+  const float lo2 = lo * lo, hi2 = hi * hi;
+  const float target_in = r_inner * (1.0f + 1e-6f) + slop, target_out = r_outer * (1.0f - 1e-6f) - slop;
   uint32_t first = kNotFound;
+  uint32_t pushed_from = kNotFound;  // the particle whose inner shell the last round moved x onto
   for (int round = 0; round < 4; ++round) {
     const NearestPoint n = nearest(x);
     if (n.index == kNotFound) return x;
     if (n.dist2 >= lo2 && n.dist2 <= hi2) return x;
     if (first == kNotFound) first = n.index;
+    const bool inside = n.dist2 < lo2;
+    if (inside && pushed_from != kNotFound && pushed_from != n.index &&
+        nearest_on_crease(x, points[pushed_from], points[n.index], target_in, &x)) {
+      pushed_from = n.index;
+      continue;
+    }
+    pushed_from = inside ? n.index : kNotFound;
     x = project_to_shell(x, points[n.index], target_in, target_out);
   }
   const NearestPoint n = nearest(x);
   if (n.dist2 >= lo2 && n.dist2 <= hi2) return x;
-  // Rare: projections against different particles undo each other (a vertex squeezed between
-  // the inner shell of one particle and the outer shell of another). Search the ray from the
-  // first nearest particle through x, from the outer shell inwards, for a point clear of every
-  // inner shell; on it the first particle is within r_outer, so the constraint holds.
+  // Rare: projections against different particles undo each other (a vertex squeezed among the
+  // inner shells of three particles, or between the inner shell of one and the outer shell of
+  // another). Search the ray from the first nearest particle through x for a point clear of
+  // every inner shell, nearest to x's own distance first; on it the first particle is within
+  // r_outer, so the constraint holds.
   const Vec3f p = points[first];
   const Vec3f u = x == p ? Vec3f{0, 0, 1} : normalized(x - p);
   constexpr int kSteps = 8;
+  const float t_x = std::fmin(std::fmax(length(x - p), target_in), target_out);
+  const float dt = (target_out - target_in) / kSteps;
   auto search_ray = [&](Vec3f dir, Vec3f* out) {
-    for (int k = 0; k <= kSteps; ++k) {
-      const float t = target_out - (target_out - target_in) * float(k) / kSteps;
+    // t_x, then the shell's sample distances outwards and inwards from it, alternately.
+    for (int k = 0; k <= 2 * kSteps; ++k) {
+      const float t = k == 0 ? t_x : t_x + float((k + 1) / 2) * dt * (k % 2 ? 1.0f : -1.0f);
+      if (t < target_in || t > target_out) continue;
       if (clear(p + dir * t)) {
         *out = p + dir * t;
         return true;
       }
     }
+    // The shell's ends, which the steps from t_x need not land on.
+    const float ends[2] = {target_in, target_out};
+    for (const float t : ends)
+      if (clear(p + dir * t)) {
+        *out = p + dir * t;
+        return true;
+      }
     return false;
   };
   Vec3f y;
@@ -87,11 +144,12 @@ MENISCUS_HD Vec3f project_with(Vec3f x, float r_inner, float r_outer, const Vec3
   return x;  // no feasible point on that ray: keep the best effort
 }
 
-/// Whether no point of the grid lies strictly within r_inner of y (a few ulps of slack).
+/// Whether no point of the grid lies strictly within r_inner of y (with project_with's allowance
+/// for rounding).
 template <class Grid>
 MENISCUS_HD bool clear_of_inner_shells(const Grid& g, Vec3f y, float r_inner) {
   bool clear = true;
-  const float lo2 = r_inner * r_inner * (1.0f - 4e-6f);
+  const float lo = std::fmax(r_inner * (1.0f - 2e-6f) - position_rounding(y), 0.0f), lo2 = lo * lo;
   grid_for_each_within(g, y, r_inner, [&](uint32_t, float d2) { clear &= d2 >= lo2; });
   return clear;
 }

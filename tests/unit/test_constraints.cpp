@@ -1,6 +1,7 @@
 // Tests of the constraint projection against brute-force nearest particles.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "smooth/constraint_impl.hpp"
@@ -39,6 +40,62 @@ TEST(Constraint, ProjectedVerticesSatisfyTheShellOfTheirNearestParticle) {
     if (best < r_in * (1 - 1e-5f) || best > r_out * (1 + 1e-5f)) ++violations;
   }
   EXPECT_EQ(violations, 0u);
+}
+
+// Two particles closer than 2 r_inner: their inner shells overlap in a lens, and the smoothing
+// presses vertices into the crease between them. A vertex pushed into the lens must come out at
+// the nearest point of the crease, not bounce between the two shells (radial projections onto one
+// shell land inside the other) and end on the far side of the outer shell.
+TEST(Constraint, VertexInTheLensOfTwoInnerShellsGoesToTheNearestCreasePoint) {
+  const float r_in = 0.5f, r_out = 1.0f;
+  const std::vector<Vec3f> particles{{0, 0, 0}, {0.9f, 0, 0}};
+  const HashGrid grid(particles, r_out);
+  const ShellConstraint c{&grid, r_in, r_out};
+  // The crease: the circle x = 0.45, radius √(0.25 − 0.2025) = 0.2179 about the x axis.
+  const float rho = std::sqrt(r_in * r_in - 0.45f * 0.45f);
+  for (const Vec3f x : {Vec3f{0.45f, 0.15f, 0}, Vec3f{0.40f, 0, 0.18f}, Vec3f{0.52f, -0.1f, 0.1f}}) {
+    const Vec3f y = project_vertex(c, x);
+    const Vec3f radial = Vec3f{0, x.y, x.z} / std::sqrt(x.y * x.y + x.z * x.z);
+    const Vec3f crease{0.45f, radial.y * rho, radial.z * rho};
+    EXPECT_LT(length(y - crease), 1e-5f) << x.x << " " << x.y << " " << x.z;
+    EXPECT_GE(length(y - particles[0]), r_in * (1 - 1e-5f));
+    EXPECT_GE(length(y - particles[1]), r_in * (1 - 1e-5f));
+  }
+}
+
+// Far from the origin the coordinates' own rounding (an ulp of 128 is 1.5e-5) exceeds the
+// radii's: the projection must still settle in one step next to where the vertex was, and not
+// fall through to the ray search. It used to, and put the vertex on the outer shell: a jump of
+// r_outer − r_inner that made the bilaplacian sweeps raise the energy until their damping gave out.
+TEST(Constraint, ProjectionFarFromTheOriginMovesTheVertexOnlyToTheShell) {
+  const float r_in = 0.005f, r_out = 0.01f;
+  const Vec3f o{128.3f, -97.1f, 203.7f};
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<Vec3f> particles;
+  for (int k = 0; k < 5; ++k)
+    for (int j = 0; j < 5; ++j)
+      for (int i = 0; i < 5; ++i)
+        particles.push_back(o + Vec3f{float(i) + 0.1f * u(rng), float(j) + 0.1f * u(rng), float(k) + 0.1f * u(rng)} * 0.01f);
+  const HashGrid grid(particles, r_out);
+  const ShellConstraint c{&grid, r_in, r_out};
+  int checked = 0;
+  for (int n = 0; n < 2000; ++n) {
+    const Vec3f x = o + Vec3f{u(rng), u(rng), u(rng)} * 0.02f + Vec3f{0.02f, 0.02f, 0.02f};
+    float before = INFINITY;
+    for (const Vec3f& p : particles) before = std::min(before, length(x - p));
+    // Vertices just inside an inner shell, as a smoothing step leaves them.
+    if (before > r_in || before < 0.9f * r_in) continue;
+    ++checked;
+    const Vec3f y = project_vertex(c, x);
+    float after = INFINITY;
+    for (const Vec3f& p : particles) after = std::min(after, length(y - p));
+    EXPECT_GE(after, r_in - 1e-4f);  // the shell, within the coordinates' rounding (4.9e-5 here)
+    EXPECT_LE(after, r_out);
+    // The nearest feasible point is within the depth (≤ 0.1 r_in), or on a crease near it.
+    EXPECT_LT(length(y - x), 0.5f * r_in) << "moved " << length(y - x) / r_in << " r_inner";
+  }
+  EXPECT_GT(checked, 20);
 }
 
 /// `uniform` particles spread over the unit cube and 200 packed into a 0.1-wide cluster at its

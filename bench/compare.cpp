@@ -12,6 +12,7 @@
 
 #include "memory.hpp"
 #include "meniscus/io.hpp"
+#include "meniscus/memory.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "metrics.hpp"
 #include "openvdb_baseline.hpp"
@@ -128,6 +129,8 @@ void print_table(const Scene& scene, const Params& p, const std::vector<Column>&
 }  // namespace
 
 int main(int argc, char** argv) {
+  // As the CLI does; the same for both tools, which run in this process.
+  meniscus::release_large_blocks_eagerly();
   CLI::App app{"meniscus vs OpenVDB (ParticlesToLevelSet + LevelSetFilter + volumeToMesh) on the same particles"};
   std::string scene_name = "block", file;
   std::size_t count = 100000, samples = 2000;

@@ -235,43 +235,56 @@ template <class NearestFn, class ExactFn>
 MENISCUS_HD Vec3f project_ellipsoid_with(Vec3f x, float r_inner, float r_outer, const Vec3f* points,
                                          const Ellipsoid* ellipsoids, NearestFn&& nearest, ExactFn&& exact,
                                          float* last_distance) {
-  const float lo = r_inner * (1.0f - 2e-6f), hi = r_outer * (1.0f + 2e-6f);
-  const float target_in = r_inner * (1.0f + 1e-6f), target_out = r_outer * (1.0f - 1e-6f);
+  // As project_with: the tolerance allows the rounding of float coordinates, here in the metric of
+  // the particle measured (a position off by e measures up to e / min_axis off).
+  const float rounding = position_rounding(x);
+  auto slop = [&](uint32_t i) { return rounding / ellipsoids[i].min_axis; };
+  auto in_shell = [&](const MetricNearest& m) {
+    const float e = slop(m.index);
+    return m.distance >= r_inner * (1.0f - 2e-6f) - e && m.distance <= r_outer * (1.0f + 2e-6f) + e;
+  };
   uint32_t first = kNotFound;
   *last_distance = -1;
   for (int round = 0; round < 4; ++round) {
     const MetricNearest n = nearest(x);
     *last_distance = n.index == kNotFound ? -1.0f : n.distance;
     if (n.index == kNotFound) return x;
-    if (n.distance >= lo && n.distance <= hi) return x;
+    if (in_shell(n)) return x;
     if (first == kNotFound) first = n.index;
-    x = project_to_ellipsoid_shell(x, points[n.index], ellipsoids[n.index].metric, target_in, target_out);
+    const float e = slop(n.index);
+    x = project_to_ellipsoid_shell(x, points[n.index], ellipsoids[n.index].metric, r_inner * (1.0f + 1e-6f) + e,
+                                   r_outer * (1.0f - 1e-6f) - e);
   }
   const MetricNearest n = nearest(x);
   *last_distance = n.distance;
-  if (n.distance >= lo && n.distance <= hi) return x;
+  if (n.index != kNotFound && in_shell(n)) return x;
   *last_distance = -1;  // whatever the ray search returns is not x at a known distance
   // Projections against different particles undo each other (a vertex squeezed between the
   // inner ellipsoid of one particle and the outer one of another): search rays from the first
-  // particle, from its outer shell inwards, for a point outside every inner ellipsoid — on such a
-  // ray the first particle measures ≤ r_outer, so the constraint holds. The ray through x first,
-  // then the directions around it, nearest first.
+  // particle for a point outside every inner ellipsoid, from x's own metric distance outwards and
+  // inwards — on such a ray the first particle measures ≤ r_outer, so the constraint holds. The
+  // ray through x first, then the directions around it, nearest first.
   const Vec3f p = points[first];
   const SymMat3& a = ellipsoids[first].metric;
   const Vec3f u = x == p ? Vec3f{0, 0, 1} : normalized(x - p);
   constexpr int kSteps = 12;
+  const float target_in = r_inner * (1.0f + 1e-6f) + slop(first), target_out = r_outer * (1.0f - 1e-6f) - slop(first);
+  const float t_x = std::fmin(std::fmax(metric_distance(a, x, p), target_in), target_out);
+  const float dt = (target_out - target_in) / kSteps;
   auto search_ray = [&](Vec3f dir, Vec3f* out) {
     const float mu = length(a * dir);
-    for (int k = 0; k <= kSteps; ++k) {
-      const float t = target_out - (target_out - target_in) * float(k) / kSteps;
+    auto try_at = [&](float t) {
       const Vec3f y = p + dir * (t / mu);
       const MetricNearest m = exact(y);
-      if (m.distance >= lo && m.distance <= hi) {
-        *out = y;
-        return true;
-      }
+      if (m.index == kNotFound || !in_shell(m)) return false;
+      *out = y;
+      return true;
+    };
+    for (int k = 0; k <= 2 * kSteps; ++k) {
+      const float t = k == 0 ? t_x : t_x + float((k + 1) / 2) * dt * (k % 2 ? 1.0f : -1.0f);
+      if (t >= target_in && t <= target_out && try_at(t)) return true;
     }
-    return false;
+    return try_at(target_in) || try_at(target_out);  // the ends, which the steps from t_x need not hit
   };
   Vec3f y;
   if (search_ray(u, &y)) return y;

@@ -385,7 +385,6 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
   // on a Z-ordered mesh, where a vertex's ring and particle list sit near it in memory.
   if (p.steps_a + p.steps_b + p.steps_free > 0) timer.run("reorder", [&] { reorder_vertices_spatially(mesh); });
 
-  SmoothReport report;
   timer.run("smooth", [&] {
     SmoothOptions o;
     static_cast<SmoothSchedule&>(o) = smooth_schedule(p);
@@ -403,13 +402,12 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
         max_axis = std::max(max_axis, shells[i].max_axis);
       }
       const EllipsoidConstraint constraint{&grid, shells, r_inner, r_outer, max_axis};
-      report = smooth_surface(mesh.vertices, mesh.triangles, &constraint, o, tick);
+      stats.smoothing = smooth_surface(mesh.vertices, mesh.triangles, &constraint, o, tick);
     } else {
       const ShellConstraint constraint{&grid, r_inner, r_outer};
-      report = smooth_surface(mesh.vertices, mesh.triangles, &constraint, o, tick);
+      stats.smoothing = smooth_surface(mesh.vertices, mesh.triangles, &constraint, o, tick);
     }
   });
-  stats.smoothing = smoothing_stats(report);
   result.params = p;  // velocity_reference as used
 
   if (p.erode > 0)

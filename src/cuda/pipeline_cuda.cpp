@@ -194,7 +194,7 @@ void reconstruct(const ParticleSet& particles, const Params& p, const std::vecto
     static_cast<SmoothSchedule&>(s) = smooth_schedule(p);
     s.r_inner = r_inner;
     s.r_outer = r_outer;
-    stats.smoothing = smoothing_stats(smooth_surface(dmesh, adj, grid, s));
+    stats.smoothing = smooth_surface(dmesh, adj, grid, s);
   });
   if (p.erode > 0) stats.flipped_triangles = timer.run("erode", [&] { return erode(dmesh, adj, float(p.erode)); });
   std::vector<DeviceBuffer<float>> transferred;

@@ -348,7 +348,6 @@ SmoothReport smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const 
   if (o.steps_a > 0) {
     if (gauss_seidel) {
       const DeviceColoring colors = color_vertices(adj, nv, 1);
-      report.colors_a = colors.offsets.size() - 1;
       for (int s = 0; s < o.steps_a; ++s)
         for (std::size_t c = 0; c + 1 < colors.offsets.size(); ++c) {
           const uint32_t b = colors.offsets[c], e = colors.offsets[c + 1];
@@ -409,13 +408,10 @@ SmoothReport smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const 
   };
   build();
   DeviceColoring colors;
-  if (gauss_seidel) {
-    colors = color_vertices(adj, nv, 2);
-    report.colors_b = colors.offsets.size() - 1;
-  }
+  if (gauss_seidel) colors = color_vertices(adj, nv, 2);
   float w = o.relax_b;
   double energy = energy_of();
-  report.energy_after_a = energy;
+  report.energy_start = energy;
   for (int s = 0; s < steps_b; ++s) {
     const bool constrained = s < o.steps_b;
     if (o.rebuild_b > 0 && s > 0 && s % o.rebuild_b == 0) {

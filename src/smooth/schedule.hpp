@@ -15,19 +15,8 @@ struct SmoothSchedule {
   int rebuild_b = 0;      ///< rebuild W and D every k B sweeps; 0: once, from the shrunk mesh
 };
 
-/// What the B sweeps did (both backends fill it in).
-struct SmoothReport {
-  double energy_after_a = 0;   ///< xᵀBx when the B sweeps start
-  double energy_final = 0;     ///< xᵀBx at the end (same operator)
-  int relax_halvings = 0;      ///< times the B damping was halved because the energy rose
-  float relax_b_final = 0;
-  std::size_t colors_a = 0, colors_b = 0;  ///< Gauss–Seidel colour classes
-};
-
-/// The report as the pipeline's Stats give it.
-inline SmoothingStats smoothing_stats(const SmoothReport& r) {
-  return {r.energy_after_a, r.energy_final, r.relax_halvings, double(r.relax_b_final)};
-}
+/// What the B sweeps did, as both backends return it and the pipeline's Stats carry it.
+using SmoothReport = SmoothingStats;
 
 /// The schedule of resolved parameters `p`.
 inline SmoothSchedule smooth_schedule(const Params& p) {

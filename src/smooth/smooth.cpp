@@ -80,7 +80,6 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
     const float w = o.relax_a;
     if (gauss_seidel) {
       const Coloring colors = color_vertices(adj, 1);
-      report.colors_a = colors.colors();
       for (int s = 0; s < o.steps_a; ++s, tick()) {
         for_each_in_colors(colors, [&](uint32_t i) {
           const Vec3f from = x[i];
@@ -109,13 +108,10 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
       std::vector<uint32_t>().swap(adj.tri_ids);
     }
     Coloring colors;
-    if (gauss_seidel) {
-      colors = color_vertices(adj, 2);
-      report.colors_b = colors.colors();
-    }
+    if (gauss_seidel) colors = color_vertices(adj, 2);
     float w = o.relax_b;
     double energy = energy_of(adj, op, x, scratch);
-    report.energy_after_a = energy;
+    report.energy_start = energy;
     std::vector<Vec3f> backup;
     for (int s = 0; s < steps_b; ++s) {
       const bool constrained = s < o.steps_b && constrained_any;

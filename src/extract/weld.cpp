@@ -161,10 +161,7 @@ class CachedFieldReader {
       index_[next_] = index;
       next_ ^= 1;
     }
-    if (index == kNotFound) return field_.background();
-    const int n = field_.lattice().block_cells();
-    return field_.block_values(index)[std::size_t(
-        field_.local_index({cell.x - b.x * n, cell.y - b.y * n, cell.z - b.z * n}, s))];
+    return field_.value_in(index, b, cell, s);
   }
 
  private:

@@ -81,11 +81,14 @@ class SparseField {
   /// The field value at sample s of `cell` (background when its block is not allocated).
   float value(Vec3i cell, int s) const {
     const Vec3i b = block_of(cell);
-    const uint32_t i = find_block(b);
-    if (i == kNotFound) return background_;
+    return value_in(find_block(b), b, cell, s);
+  }
+  /// value() once the block is known: `index` = find_block(block), block = block_of(cell).
+  float value_in(uint32_t index, Vec3i block, Vec3i cell, int s) const {
+    if (index == kNotFound) return background_;
     const int n = lattice_.block_cells();
-    return values_[std::size_t(i) * kBlockSamples +
-                   local_index({cell.x - b.x * n, cell.y - b.y * n, cell.z - b.z * n}, s)];
+    return values_[std::size_t(index) * kBlockSamples +
+                   local_index({cell.x - block.x * n, cell.y - block.y * n, cell.z - block.z * n}, s)];
   }
 
   std::size_t memory_bytes() const { return values_.size() * 4 + block_keys_.size() * 8 + index_.memory_bytes(); }

@@ -41,24 +41,26 @@ inline void advise_huge_pages(void* data, std::size_t bytes) {
 #endif
 }
 
-/// v.resize(n) for an empty vector, with the new storage advised for huge pages before the
-/// value-initialisation touches it. A vector that already holds storage is just resized.
+/// Storage for n elements of an empty vector, advised for huge pages before anything touches it
+/// (a vector that already holds storage keeps it).
+template <class T, class A>
+void reserve_huge(std::vector<T, A>& v, std::size_t n) {
+  if (v.capacity() != 0) return;
+  v.reserve(n);
+  advise_huge_pages(v.data(), n * sizeof(T));
+}
+
+/// v.resize(n) on huge pages where v was empty.
 template <class T, class A>
 void resize_huge(std::vector<T, A>& v, std::size_t n) {
-  if (v.capacity() == 0) {
-    v.reserve(n);
-    advise_huge_pages(v.data(), n * sizeof(T));
-  }
+  reserve_huge(v, n);
   v.resize(n);
 }
 
-/// The same for v.assign(n, value).
+/// v.assign(n, value) on huge pages where v was empty.
 template <class T, class A>
 void assign_huge(std::vector<T, A>& v, std::size_t n, const T& value) {
-  if (v.capacity() == 0) {
-    v.reserve(n);
-    advise_huge_pages(v.data(), n * sizeof(T));
-  }
+  reserve_huge(v, n);
   v.assign(n, value);
 }
 

@@ -20,6 +20,35 @@ MENISCUS_HD inline float position_rounding(Vec3f x) {
   return kEpsilon * std::fmax(std::fabs(x.x), std::fmax(std::fabs(x.y), std::fabs(x.z)));
 }
 
+/// A shell [r_inner, r_outer] as the projections test and target it: accepted within a few ulps
+/// of its walls plus `slop` (the rounding of the coordinates, in the shell's units), and a
+/// projected vertex placed a hair inside: a point projected exactly onto a wall measures up to an
+/// ulp outside half the time, which would otherwise send it round again.
+struct ShellBounds {
+  float lo, hi;                 ///< accepted distances (lo ≥ 0)
+  float target_in, target_out;  ///< where a projection puts a vertex that was inside / outside
+};
+MENISCUS_HD inline float accepted_inner(float r_inner, float slop) {
+  return std::fmax(r_inner * (1.0f - 2e-6f) - slop, 0.0f);
+}
+MENISCUS_HD inline ShellBounds shell_bounds(float r_inner, float r_outer, float slop) {
+  return {accepted_inner(r_inner, slop), r_outer * (1.0f + 2e-6f) + slop, r_inner * (1.0f + 1e-6f) + slop,
+          r_outer * (1.0f - 1e-6f) - slop};
+}
+
+/// Offers try_at the distances of [t_in, t_out] nearest t first: t itself, then steps of
+/// (t_out − t_in)/steps outwards and inwards alternately, then the two ends (which those steps
+/// need not land on). Whether try_at accepted one.
+template <class TryAt>
+MENISCUS_HD bool try_shell_distances(float t, float t_in, float t_out, int steps, TryAt&& try_at) {
+  const float dt = (t_out - t_in) / float(steps);
+  for (int k = 0; k <= 2 * steps; ++k) {
+    const float d = k == 0 ? t : t + float((k + 1) / 2) * dt * (k % 2 ? 1.0f : -1.0f);
+    if (d >= t_in && d <= t_out && try_at(d)) return true;
+  }
+  return try_at(t_in) || try_at(t_out);
+}
+
 /// Moves x radially from the particle p onto the shell r_inner ≤ |x − p| ≤ r_outer.
 /// A vertex exactly on the particle is pushed along +z (any direction satisfies the constraint).
 MENISCUS_HD inline Vec3f project_to_shell(Vec3f x, Vec3f p, float r_inner, float r_outer) {
@@ -68,14 +97,11 @@ MENISCUS_HD inline bool nearest_on_crease(Vec3f x, Vec3f p, Vec3f q, float r, Ve
 template <class NearestFn, class ClearFn>
 MENISCUS_HD Vec3f project_with(Vec3f x, float r_inner, float r_outer, const Vec3f* points, NearestFn&& nearest,
                                ClearFn&& clear) {
-  // Accept within a few ulps of the shell, and project a hair inside it: a point projected
-  // exactly onto the shell measures up to an ulp outside half the time, which would otherwise
-  // send it round again. Far from the origin the ulp of the coordinates, not of the radii, is
-  // what a projected point is rounded to.
-  const float slop = position_rounding(x);
-  const float lo = std::fmax(r_inner * (1.0f - 2e-6f) - slop, 0.0f), hi = r_outer * (1.0f + 2e-6f) + slop;
-  const float lo2 = lo * lo, hi2 = hi * hi;
-  const float target_in = r_inner * (1.0f + 1e-6f) + slop, target_out = r_outer * (1.0f - 1e-6f) - slop;
+  // Far from the origin the ulp of the coordinates, not of the radii, is what a projected point
+  // is rounded to.
+  const ShellBounds shell = shell_bounds(r_inner, r_outer, position_rounding(x));
+  const float lo2 = shell.lo * shell.lo, hi2 = shell.hi * shell.hi;
+  const float target_in = shell.target_in, target_out = shell.target_out;
   uint32_t first = kNotFound;
   uint32_t pushed_from = kNotFound;  // the particle whose inner shell the last round moved x onto
   for (int round = 0; round < 4; ++round) {
@@ -103,25 +129,12 @@ MENISCUS_HD Vec3f project_with(Vec3f x, float r_inner, float r_outer, const Vec3
   const Vec3f u = x == p ? Vec3f{0, 0, 1} : normalized(x - p);
   constexpr int kSteps = 8;
   const float t_x = std::fmin(std::fmax(length(x - p), target_in), target_out);
-  const float dt = (target_out - target_in) / kSteps;
   auto search_ray = [&](Vec3f dir, Vec3f* out) {
-    // t_x, then the shell's sample distances outwards and inwards from it, alternately.
-    for (int k = 0; k <= 2 * kSteps; ++k) {
-      const float t = k == 0 ? t_x : t_x + float((k + 1) / 2) * dt * (k % 2 ? 1.0f : -1.0f);
-      if (t < target_in || t > target_out) continue;
-      if (clear(p + dir * t)) {
-        *out = p + dir * t;
-        return true;
-      }
-    }
-    // The shell's ends, which the steps from t_x need not land on.
-    const float ends[2] = {target_in, target_out};
-    for (const float t : ends)
-      if (clear(p + dir * t)) {
-        *out = p + dir * t;
-        return true;
-      }
-    return false;
+    return try_shell_distances(t_x, target_in, target_out, kSteps, [&](float t) {
+      if (!clear(p + dir * t)) return false;
+      *out = p + dir * t;
+      return true;
+    });
   };
   Vec3f y;
   if (search_ray(u, &y)) return y;
@@ -149,7 +162,7 @@ MENISCUS_HD Vec3f project_with(Vec3f x, float r_inner, float r_outer, const Vec3
 template <class Grid>
 MENISCUS_HD bool clear_of_inner_shells(const Grid& g, Vec3f y, float r_inner) {
   bool clear = true;
-  const float lo = std::fmax(r_inner * (1.0f - 2e-6f) - position_rounding(y), 0.0f), lo2 = lo * lo;
+  const float lo = accepted_inner(r_inner, position_rounding(y)), lo2 = lo * lo;
   grid_for_each_within(g, y, r_inner, [&](uint32_t, float d2) { clear &= d2 >= lo2; });
   return clear;
 }
@@ -238,10 +251,10 @@ MENISCUS_HD Vec3f project_ellipsoid_with(Vec3f x, float r_inner, float r_outer, 
   // As project_with: the tolerance allows the rounding of float coordinates, here in the metric of
   // the particle measured (a position off by e measures up to e / min_axis off).
   const float rounding = position_rounding(x);
-  auto slop = [&](uint32_t i) { return rounding / ellipsoids[i].min_axis; };
+  auto shell_of = [&](uint32_t i) { return shell_bounds(r_inner, r_outer, rounding / ellipsoids[i].min_axis); };
   auto in_shell = [&](const MetricNearest& m) {
-    const float e = slop(m.index);
-    return m.distance >= r_inner * (1.0f - 2e-6f) - e && m.distance <= r_outer * (1.0f + 2e-6f) + e;
+    const ShellBounds s = shell_of(m.index);
+    return m.distance >= s.lo && m.distance <= s.hi;
   };
   uint32_t first = kNotFound;
   *last_distance = -1;
@@ -251,9 +264,8 @@ MENISCUS_HD Vec3f project_ellipsoid_with(Vec3f x, float r_inner, float r_outer, 
     if (n.index == kNotFound) return x;
     if (in_shell(n)) return x;
     if (first == kNotFound) first = n.index;
-    const float e = slop(n.index);
-    x = project_to_ellipsoid_shell(x, points[n.index], ellipsoids[n.index].metric, r_inner * (1.0f + 1e-6f) + e,
-                                   r_outer * (1.0f - 1e-6f) - e);
+    const ShellBounds s = shell_of(n.index);
+    x = project_to_ellipsoid_shell(x, points[n.index], ellipsoids[n.index].metric, s.target_in, s.target_out);
   }
   const MetricNearest n = nearest(x);
   *last_distance = n.distance;
@@ -268,23 +280,17 @@ MENISCUS_HD Vec3f project_ellipsoid_with(Vec3f x, float r_inner, float r_outer, 
   const SymMat3& a = ellipsoids[first].metric;
   const Vec3f u = x == p ? Vec3f{0, 0, 1} : normalized(x - p);
   constexpr int kSteps = 12;
-  const float target_in = r_inner * (1.0f + 1e-6f) + slop(first), target_out = r_outer * (1.0f - 1e-6f) - slop(first);
-  const float t_x = std::fmin(std::fmax(metric_distance(a, x, p), target_in), target_out);
-  const float dt = (target_out - target_in) / kSteps;
+  const ShellBounds first_shell = shell_of(first);
+  const float t_x = std::fmin(std::fmax(metric_distance(a, x, p), first_shell.target_in), first_shell.target_out);
   auto search_ray = [&](Vec3f dir, Vec3f* out) {
     const float mu = length(a * dir);
-    auto try_at = [&](float t) {
+    return try_shell_distances(t_x, first_shell.target_in, first_shell.target_out, kSteps, [&](float t) {
       const Vec3f y = p + dir * (t / mu);
       const MetricNearest m = exact(y);
       if (m.index == kNotFound || !in_shell(m)) return false;
       *out = y;
       return true;
-    };
-    for (int k = 0; k <= 2 * kSteps; ++k) {
-      const float t = k == 0 ? t_x : t_x + float((k + 1) / 2) * dt * (k % 2 ? 1.0f : -1.0f);
-      if (t >= target_in && t <= target_out && try_at(t)) return true;
-    }
-    return try_at(target_in) || try_at(target_out);  // the ends, which the steps from t_x need not hit
+    });
   };
   Vec3f y;
   if (search_ray(u, &y)) return y;

@@ -119,7 +119,7 @@ MeshComponents mesh_components(const TriangleMesh& mesh) {
   std::stable_sort(all.begin(), all.end(), [](const Component& a, const Component& b) { return a.root < b.root; });
   for (const Component& run : all)
     if (c.components.empty() || c.components.back().root != run.root)
-      c.components.push_back({run.root, 0.0 + run.volume});
+      c.components.push_back({run.root, 0.0 + run.volume});  // from 0.0, as the per-vertex sums were
     else
       c.components.back().volume += run.volume;
   return c;

@@ -74,6 +74,18 @@ int run_command(const std::string& command, std::string* output) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+std::size_t count_before(std::string_view name, std::string_view suffix) {
+  for (std::size_t at = name.find(suffix); at != std::string_view::npos; at = name.find(suffix, at + 1)) {
+    std::size_t begin = at;
+    while (begin > 0 && name[begin - 1] >= '0' && name[begin - 1] <= '9') --begin;
+    if (begin == at || begin == 0 || name[begin - 1] != '_') continue;
+    std::size_t n = 0;
+    for (std::size_t k = begin; k < at; ++k) n = n * 10 + std::size_t(name[k] - '0');
+    return n;
+  }
+  return 0;
+}
+
 std::string data_file(const std::string& name) { return std::string(MENISCUS_TEST_DATA) + "/" + name; }
 std::string cli() { return MENISCUS_CLI; }
 

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "meniscus/mesh.hpp"
@@ -35,6 +36,10 @@ struct TempDir {
 
 /// Runs a shell command, returns its exit status; stdout+stderr are captured into `output`.
 int run_command(const std::string& command, std::string* output = nullptr);
+
+/// N where `name` holds "_<N>" + `suffix` (the bundled frames carry their particle count in their
+/// names: "dam_break_frame_23_24389_particles.ply"); 0 when it holds none.
+std::size_t count_before(std::string_view name, std::string_view suffix);
 
 /// Path of a bundled test data file (tests/data/NAME).
 std::string data_file(const std::string& name);

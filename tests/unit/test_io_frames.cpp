@@ -4,7 +4,6 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
-#include <regex>
 #include <string>
 
 #include "meniscus/io.hpp"
@@ -17,9 +16,15 @@ namespace {
 std::size_t expected_count(const std::string& stem) {
   static const std::map<std::string, std::size_t> misnamed = {{"bunny_frame_14_7705_particles", 7706}};
   if (auto it = misnamed.find(stem); it != misnamed.end()) return it->second;
-  std::smatch match;
-  if (!std::regex_search(stem, match, std::regex("_(\\d+)_particles$"))) return 0;
-  return std::stoul(match[1]);
+  return stem.ends_with("_particles") ? test::count_before(stem, "_particles") : 0;
+}
+
+TEST(RealFrames, CountInANameIsTheNumberBeforeTheSuffix) {
+  EXPECT_EQ(test::count_before("dam_break_frame_23_24389_particles.ply", "_particles."), 24389u);
+  EXPECT_EQ(test::count_before("free_particles_1000_particles", "_particles"), 1000u);  // the first "_particles" has no count
+  EXPECT_EQ(test::count_before("cube_2366_points.bgeo", "_particles."), 0u);
+  EXPECT_EQ(test::count_before("x2366_particles.ply", "_particles."), 0u);  // no "_" before the digits
+  EXPECT_EQ(test::count_before("_particles.ply", "_particles."), 0u);
 }
 
 TEST(RealFrames, EveryConvertedFrameLoadsWithItsParticleCount) {

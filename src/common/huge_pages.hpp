@@ -4,9 +4,12 @@
 // hundreds of MB and are read at random (by triangle corner): with 4 KiB pages most of those reads
 // miss the TLB. Where the system leaves THP to the program (`madvise` mode, Debian's default),
 // asking for it on these arrays cut the void pass by about a fifth and the mesh write by about a
-// quarter on splash 1M (bench/RESULTS.md). Arrays written once in order and then streamed (the
-// field, the march pages, the weld's keys, the radix scratch) are better off without: a huge
-// page is zeroed whole at its first touch, ahead of the writes, which then miss the cache — the
+// quarter on splash 1M (bench/RESULTS.md). The smoothing's per-vertex arrays (adjacency, operator,
+// constraint caches, W x, colour classes, the reordered mesh) are read at random some sixty times
+// each: on huge pages its sweeps took about 4 % less on splash 1M. Arrays written once in order
+// and then streamed (the field, the march pages, the weld's keys, the radix scratch) are better
+// off without: a huge page is zeroed whole at its first touch, ahead of the writes, which then
+// miss the cache — the
 // field and the extraction measured 10-15 % slower with it. glibc's own switch
 // (GLIBC_TUNABLES=glibc.malloc.hugetlb=1) is read at process start only, so a library cannot set
 // it, and it would apply to every array alike.

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <limits>
 
+#include "common/huge_pages.hpp"
 #include "extract/radix_sort.hpp"
 #include "mesh/vertex_order_impl.hpp"
 
@@ -27,7 +28,9 @@ struct Box {
 template <class T>
 void permute(std::vector<T>& values, const std::vector<uint32_t>& old_of_new) {
   if (values.empty()) return;
-  std::vector<T> out(old_of_new.size());
+  // The reordered arrays are what the smoothing and the normals read at random: huge pages.
+  std::vector<T> out;
+  resize_huge(out, old_of_new.size());
   tbb::parallel_for(std::size_t(0), old_of_new.size(), [&](std::size_t i) { out[i] = values[old_of_new[i]]; });
   values.swap(out);
 }
@@ -81,7 +84,8 @@ void reorder_vertices_spatially(TriangleMesh& mesh) {
     tri_keys[t] = uint64_t(std::min({tri[0], tri[1], tri[2]})) << 32 | t;
   });
   radix_sort(tri_keys, 32, 64);
-  std::vector<Triangle> sorted(nt);
+  std::vector<Triangle> sorted;
+  resize_huge(sorted, nt);
   tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) { sorted[t] = mesh.triangles[uint32_t(tri_keys[t])]; });
   mesh.triangles.swap(sorted);
 }

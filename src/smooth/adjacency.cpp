@@ -6,16 +6,19 @@
 
 #include <algorithm>
 
+#include "common/huge_pages.hpp"
+
 namespace meniscus {
 
 Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> triangles) {
   Adjacency adj;
   const std::size_t nv = vertex_count;
-  adj.tri_offsets.assign(nv + 1, 0);
+  // The sweeps read these arrays at random, ~60 times: huge pages (huge_pages.hpp).
+  assign_huge(adj.tri_offsets, nv + 1, 0u);
   for (const Triangle& t : triangles)
     for (uint32_t v : t) ++adj.tri_offsets[v + 1];
   for (std::size_t i = 0; i < nv; ++i) adj.tri_offsets[i + 1] += adj.tri_offsets[i];
-  adj.tri_ids.resize(adj.tri_offsets[nv]);
+  resize_huge(adj.tri_ids, adj.tri_offsets[nv]);
   {
     std::vector<uint32_t> fill(adj.tri_offsets.begin(), adj.tri_offsets.end() - 1);
     for (uint32_t f = 0; f < triangles.size(); ++f)
@@ -42,10 +45,10 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
       counts[i + 1] = gather(uint32_t(i), scratch.data());
     }
   });
-  adj.offsets.resize(nv + 1);
+  resize_huge(adj.offsets, nv + 1);
   adj.offsets[0] = 0;
   for (std::size_t i = 0; i < nv; ++i) adj.offsets[i + 1] = adj.offsets[i] + counts[i + 1];
-  adj.neighbors.resize(adj.offsets[nv]);
+  resize_huge(adj.neighbors, adj.offsets[nv]);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 2048), [&](const auto& r) {
     std::vector<uint32_t> scratch;
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
@@ -83,7 +86,7 @@ Coloring color_vertices(const Adjacency& adj, int distance) {
   out.offsets.assign(std::size_t(ncolors) + 1, 0);
   for (uint16_t c : color) ++out.offsets[std::size_t(c) + 1];
   for (std::size_t c = 0; c < ncolors; ++c) out.offsets[c + 1] += out.offsets[c];
-  out.vertices.resize(nv);
+  resize_huge(out.vertices, nv);
   std::vector<uint32_t> fill(out.offsets.begin(), out.offsets.end() - 1);
   for (uint32_t i = 0; i < nv; ++i) out.vertices[fill[color[i]]++] = i;
   return out;

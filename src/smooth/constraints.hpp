@@ -8,6 +8,7 @@
 #include <span>
 #include <vector>
 
+#include "common/huge_pages.hpp"
 #include "smooth/constraint_impl.hpp"
 #include "grid/hash_grid.hpp"
 #include "meniscus/vec.hpp"
@@ -57,9 +58,9 @@ class CachedParticleLists {
   /// One list per vertex, each made by refresh(i, x[i]) (in parallel), every slack unknown.
   template <class Refresh>
   void make_lists(std::span<const Vec3f> x, Refresh&& refresh) {
-    entries_.assign(x.size(), CachedParticleList{});
-    ids_.resize(x.size() * std::size_t(K));
-    slack_.assign(x.size(), -1.0f);
+    assign_huge(entries_, x.size(), CachedParticleList{});
+    resize_huge(ids_, x.size() * std::size_t(K));
+    assign_huge(slack_, x.size(), -1.0f);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 1024), [&](const auto& r) {
       for (std::size_t i = r.begin(); i != r.end(); ++i) refresh(uint32_t(i), x[i]);
     });

@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "common/huge_pages.hpp"
+
 #include "smooth/cotangent_impl.hpp"
 #include "smooth/operators_impl.hpp"
 
@@ -16,10 +18,10 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
                                    const Adjacency& adj) {
   const std::size_t nv = adj.vertex_count();
   CotanOperator op;
-  op.w.assign(adj.neighbors.size(), 0.0f);
-  op.diag.assign(nv, 0.0f);
-  op.area.assign(nv, 0.0f);
-  op.b_diag.assign(nv, 0.0f);
+  assign_huge(op.w, adj.neighbors.size(), 0.0f);
+  assign_huge(op.diag, nv, 0.0f);
+  assign_huge(op.area, nv, 0.0f);
+  assign_huge(op.b_diag, nv, 0.0f);
   // Each vertex assembles its own row from its incident triangles: no two threads write the
   // same entry, so no atomics are needed.
   const MeshRows rows{adj.offsets.data(), adj.neighbors.data(), adj.tri_offsets.data(), adj.tri_ids.data(),

@@ -3,6 +3,7 @@
 
 #include <tbb/parallel_for.h>
 
+#include "common/huge_pages.hpp"
 #include "smooth/adjacency.hpp"
 #include "smooth/operators.hpp"
 
@@ -39,7 +40,7 @@ Vec3f neighbour_mean(const Adjacency& adj, std::span<const Vec3f> x, uint32_t i)
 }
 
 double energy_of(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> x, std::vector<Vec3f>& scratch) {
-  scratch.resize(x.size());
+  resize_huge(scratch, x.size());
   apply_w(adj, op, x, scratch);
   return bilaplacian_energy(op, scratch);
 }
@@ -73,7 +74,9 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
     __builtin_prefetch(&x[i]);
   };
 
-  std::vector<Vec3f> next(gauss_seidel ? 0 : nv), scratch;  // next: the Jacobi iterate only
+  // Read at random by every sweep, as all the smoothing's per-vertex arrays: on huge pages.
+  std::vector<Vec3f> next, scratch;  // next: the Jacobi iterate only
+  if (!gauss_seidel) resize_huge(next, nv);
 
   // --- A: constrained graph-Laplacian sweeps ---------------------------------------------------
   if (o.steps_a > 0) {
@@ -113,6 +116,7 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
     double energy = energy_of(adj, op, x, scratch);
     report.energy_start = energy;
     std::vector<Vec3f> backup;
+    reserve_huge(backup, nv);
     for (int s = 0; s < steps_b; ++s) {
       const bool constrained = s < o.steps_b && constrained_any;
       if (o.rebuild_b > 0 && s > 0 && s % o.rebuild_b == 0) {

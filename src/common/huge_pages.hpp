@@ -9,10 +9,9 @@
 // each: on huge pages its sweeps took about 4 % less on splash 1M. Arrays written once in order
 // and then streamed (the field, the march pages, the weld's keys, the radix scratch) are better
 // off without: a huge page is zeroed whole at its first touch, ahead of the writes, which then
-// miss the cache — the
-// field and the extraction measured 10-15 % slower with it. glibc's own switch
-// (GLIBC_TUNABLES=glibc.malloc.hugetlb=1) is read at process start only, so a library cannot set
-// it, and it would apply to every array alike.
+// miss the cache — the field and the extraction measured 10-15 % slower with it. glibc's own
+// switch (GLIBC_TUNABLES=glibc.malloc.hugetlb=1) is read at process start only, so a library
+// cannot set it, and it would apply to every array alike.
 #pragma once
 
 #include <cstddef>

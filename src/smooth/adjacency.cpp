@@ -13,7 +13,8 @@ namespace meniscus {
 Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> triangles) {
   Adjacency adj;
   const std::size_t nv = vertex_count;
-  // The sweeps read these arrays at random, ~60 times: huge pages (huge_pages.hpp).
+  // Read at random (the rows by every sweep, the triangle lists by the operator's build): on huge
+  // pages (huge_pages.hpp).
   assign_huge(adj.tri_offsets, nv + 1, 0u);
   for (const Triangle& t : triangles)
     for (uint32_t v : t) ++adj.tri_offsets[v + 1];

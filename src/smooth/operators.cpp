@@ -8,7 +8,6 @@
 #include <cmath>
 
 #include "common/huge_pages.hpp"
-
 #include "smooth/cotangent_impl.hpp"
 #include "smooth/operators_impl.hpp"
 

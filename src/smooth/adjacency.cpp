@@ -61,7 +61,38 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
   return adj;
 }
 
-Coloring color_vertices(const Adjacency& adj, int distance) {
+Adjacency renumber_adjacency(const Adjacency& adj, std::span<const uint32_t> order) {
+  const std::size_t nv = adj.vertex_count();
+  std::vector<uint32_t> rank(nv);
+  auto parallel_n = [](std::size_t n, auto&& f) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
+      for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
+    });
+  };
+  parallel_n(nv, [&](std::size_t n) { rank[order[n]] = uint32_t(n); });
+  // Rows of old vertex order[n], in new order; the neighbour entries relabelled, in place.
+  auto permute_rows = [&](const std::vector<uint32_t>& offsets, const std::vector<uint32_t>& entries,
+                          std::vector<uint32_t>& new_offsets, std::vector<uint32_t>& new_entries, bool relabel) {
+    resize_huge(new_offsets, nv + 1);
+    new_offsets[0] = 0;
+    for (std::size_t n = 0; n < nv; ++n)
+      new_offsets[n + 1] = new_offsets[n] + (offsets[order[n] + 1] - offsets[order[n]]);
+    resize_huge(new_entries, entries.size());
+    parallel_n(nv, [&](std::size_t n) {
+      uint32_t* out = new_entries.data() + new_offsets[n];
+      const uint32_t b = offsets[order[n]], e = offsets[order[n] + 1];
+      for (uint32_t k = b; k < e; ++k) out[k - b] = relabel ? rank[entries[k]] : entries[k];
+    });
+  };
+  Adjacency out;
+  permute_rows(adj.offsets, adj.neighbors, out.offsets, out.neighbors, true);
+  if (!adj.tri_offsets.empty()) permute_rows(adj.tri_offsets, adj.tri_ids, out.tri_offsets, out.tri_ids, false);
+  return out;
+}
+
+Coloring color_vertices(const Adjacency& adj, int distance) { return group_by_color(greedy_colors(adj, distance)); }
+
+std::vector<uint16_t> greedy_colors(const Adjacency& adj, int distance) {
   const std::size_t nv = adj.vertex_count();
   std::vector<uint16_t> color(nv, 0xFFFF);
   std::vector<uint32_t> mark;  // mark[c] == i + 1: colour c is taken for vertex i
@@ -83,6 +114,12 @@ Coloring color_vertices(const Adjacency& adj, int distance) {
     color[i] = c;
     if (c == ncolors) ++ncolors;
   }
+  return color;
+}
+
+Coloring group_by_color(std::span<const uint16_t> color) {
+  const std::size_t nv = color.size();
+  const std::size_t ncolors = nv == 0 ? 0 : std::size_t(*std::max_element(color.begin(), color.end())) + 1;
   Coloring out;
   out.offsets.assign(std::size_t(ncolors) + 1, 0);
   for (uint16_t c : color) ++out.offsets[std::size_t(c) + 1];

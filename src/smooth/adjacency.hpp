@@ -1,4 +1,4 @@
-// meniscus — vertex adjacency of a triangle mesh in CSR form (neighbours sorted, no self),
+// meniscus — vertex adjacency of a triangle mesh in CSR form (neighbours distinct, no self),
 // plus vertex → incident-triangle lists and independent-set colourings for Gauss–Seidel.
 #pragma once
 
@@ -12,7 +12,7 @@ namespace meniscus {
 
 struct Adjacency {
   std::vector<uint32_t> offsets;      ///< #V+1: neighbours of i are neighbors[offsets[i] .. offsets[i+1])
-  std::vector<uint32_t> neighbors;    ///< sorted ascending within each row
+  std::vector<uint32_t> neighbors;    ///< ascending within each row (renumber_adjacency: see there)
   std::vector<uint32_t> tri_offsets;  ///< #V+1: incident triangles of i are tri_ids[tri_offsets[i] ..)
   std::vector<uint32_t> tri_ids;
 
@@ -25,6 +25,13 @@ struct Adjacency {
 /// Builds the adjacency of `vertex_count` vertices from the triangles (parallel).
 Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> triangles);
 
+/// The adjacency of the same mesh with its vertices renumbered: new vertex n is old vertex
+/// order[n] (a permutation). Row n holds the relabelled entries of old row order[n] *in their old
+/// order*, so that a sum over a row adds the same values in the same order as before the
+/// renumbering (bit-identical results); triangle ids are unchanged. Much cheaper than
+/// build_adjacency of the relabelled triangles, which it equals up to the order within rows.
+Adjacency renumber_adjacency(const Adjacency& adjacency, std::span<const uint32_t> order);
+
 /// Vertices grouped into colour classes such that no two vertices of a class are within
 /// `distance` (1 or 2) edges of each other: vertices[offsets[c] .. offsets[c+1]) have colour c.
 struct Coloring {
@@ -34,5 +41,9 @@ struct Coloring {
 };
 /// Greedy colouring (deterministic: vertices in index order, smallest free colour).
 Coloring color_vertices(const Adjacency& adjacency, int distance);
+/// The colour of every vertex in color_vertices' colouring.
+std::vector<uint16_t> greedy_colors(const Adjacency& adjacency, int distance);
+/// The classes of per-vertex colours: vertices of each colour in ascending index order.
+Coloring group_by_color(std::span<const uint16_t> color);
 
 }  // namespace meniscus

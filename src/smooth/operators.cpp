@@ -13,8 +13,30 @@
 
 namespace meniscus {
 
+namespace {
+
+/// Σ_k term(k) over [0, n) in the fixed tree of operators_impl.hpp, visiting k in the original
+/// numbering: term index rank[k] when `rank` is given (the vertices renumbered, rank: old → new).
+template <class Term>
+double sum_in_tree(std::size_t n, std::span<const uint32_t> rank, Term&& term) {
+  const std::vector<std::size_t> leaves = sum_tree_leaves(n);
+  std::vector<double> sums(leaves.size() - 1);
+  tbb::parallel_for(std::size_t(0), sums.size(), [&](std::size_t l) {
+    double s = 0.0;
+    if (rank.empty())
+      for (std::size_t k = leaves[l]; k < leaves[l + 1]; ++k) s += term(k);
+    else
+      for (std::size_t k = leaves[l]; k < leaves[l + 1]; ++k) s += term(rank[k]);
+    sums[l] = s;
+  });
+  std::size_t next = 0;
+  return sum_tree_combine(0, n, kSumTreeGrain, sums.data(), &next);
+}
+
+}  // namespace
+
 CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Triangle> triangles,
-                                   const Adjacency& adj) {
+                                   const Adjacency& adj, std::span<const uint32_t> rank) {
   const std::size_t nv = adj.vertex_count();
   CotanOperator op;
   assign_huge(op.w, adj.neighbors.size(), 0.0f);
@@ -32,15 +54,7 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
   // Vertices that collapsed onto a neighbour have no area; a floor relative to the mean area
   // keeps D invertible without changing any healthy vertex.
   // Summed in the fixed tree the CUDA backend uses too, so both get the same floor.
-  const std::vector<std::size_t> leaves = sum_tree_leaves(nv);
-  std::vector<double> sums(leaves.size() - 1);
-  tbb::parallel_for(std::size_t(0), sums.size(), [&](std::size_t l) {
-    double s = 0.0;
-    for (std::size_t k = leaves[l]; k < leaves[l + 1]; ++k) s += double(op.area[k]);
-    sums[l] = s;
-  });
-  std::size_t next = 0;
-  double mean_area = sum_tree_combine(0, nv, kSumTreeGrain, sums.data(), &next);
+  double mean_area = sum_in_tree(nv, rank, [&](std::size_t k) { return double(op.area[k]); });
   mean_area /= double(std::max<std::size_t>(nv, 1));
   const float area_floor = float(std::max(mean_area * 1e-6, 1e-30));
   for (float& a : op.area) a = std::max(a, area_floor);
@@ -59,19 +73,11 @@ void apply_w(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3
   });
 }
 
-double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx) {
+double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx, std::span<const uint32_t> rank) {
   // Deterministic: the energy decides whether a sweep is redone with a smaller ω, so the same
   // input must give the same sum whatever the thread scheduling.
   // The CUDA backend sums in the same tree (operators_impl.hpp), so both take the same decisions.
-  const std::vector<std::size_t> leaves = sum_tree_leaves(wx.size());
-  std::vector<double> sums(leaves.size() - 1);
-  tbb::parallel_for(std::size_t(0), sums.size(), [&](std::size_t l) {
-    double e = 0.0;
-    for (std::size_t k = leaves[l]; k < leaves[l + 1]; ++k) e += energy_term(wx[k], op.area[k]);
-    sums[l] = e;
-  });
-  std::size_t next = 0;
-  return sum_tree_combine(0, wx.size(), kSumTreeGrain, sums.data(), &next);
+  return sum_in_tree(wx.size(), rank, [&](std::size_t k) { return energy_term(wx[k], op.area[k]); });
 }
 
 Vec3f bilaplacian_row(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> x, uint32_t i) {

@@ -19,14 +19,17 @@ struct CotanOperator {
 };
 
 /// Builds W, D and diag(B) for the current positions (parallel over vertices, no atomics).
+/// `rank` (old → new index), for renumbered vertices: the floor on D comes from the mean area
+/// summed in the original numbering, as if they had not been renumbered.
 CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Triangle> triangles,
-                                   const Adjacency& adjacency);
+                                   const Adjacency& adjacency, std::span<const uint32_t> rank = {});
 
 /// y = W x.
 void apply_w(const Adjacency& adjacency, const CotanOperator& op, std::span<const Vec3f> x, std::span<Vec3f> y);
 
-/// Energy xᵀ B x = Σ_k |(W x)_k|² / D_k (given y = W x).
-double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx);
+/// Energy xᵀ B x = Σ_k |(W x)_k|² / D_k (given y = W x), summed in the fixed tree of
+/// operators_impl.hpp; in the original numbering of renumbered vertices given their `rank`.
+double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx, std::span<const uint32_t> rank = {});
 
 /// (B x)_i for one vertex given wx = W x: Σ_k W_ik / D_k (W x)_k over i and its ring.
 inline Vec3f bilaplacian_row_from_wx(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> wx,

@@ -13,7 +13,7 @@
 
 namespace meniscus {
 
-/// CSR rows of a mesh: neighbours of i at neighbors[offsets[i] .. offsets[i+1]) (sorted), incident
+/// CSR rows of a mesh: neighbours of i at neighbors[offsets[i] .. offsets[i+1]) (distinct), incident
 /// triangles at tri_ids[tri_offsets[i] .. tri_offsets[i+1]) (ascending); triangles as index triples.
 struct MeshRows {
   const uint32_t* offsets;
@@ -66,16 +66,17 @@ MENISCUS_HD inline void cotan_row(const MeshRows& m, const Vec3f* x, uint32_t i,
     // Edge (i, j) is opposite the angle at l; edge (i, l) is opposite the angle at j.
     const float cot_l = clamped_cotangent(pl, pi, pj);
     const float cot_j = clamped_cotangent(pj, pi, pl);
-    auto at = [&](uint32_t v) {  // lower_bound in the sorted row
-      uint32_t lo = row_begin, hi = row_end;
-      while (lo < hi) {
-        const uint32_t mid = lo + (hi - lo) / 2;
-        if (m.neighbors[mid] < v) lo = mid + 1; else hi = mid;
-      }
-      return lo - row_begin;
+    // v's entry in the row (six or seven entries; in any order — renumbered rows keep the order of
+    // the original numbering); a corner repeated in a degenerate triangle has none.
+    auto add = [&](uint32_t v, float cot) {
+      for (uint32_t e = row_begin; e < row_end; ++e)
+        if (m.neighbors[e] == v) {
+          wrow[e - row_begin] += cot;
+          return;
+        }
     };
-    wrow[at(j)] += cot_l;
-    wrow[at(l)] += cot_j;
+    add(j, cot_l);
+    add(l, cot_j);
     a += clamped_area(pi, pj, pl);
   }
   float sum = 0;

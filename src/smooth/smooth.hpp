@@ -19,22 +19,27 @@ namespace meniscus {
 struct SmoothOptions : SmoothSchedule {
   /// Per-vertex factor in (0, 1] on the damping of every sweep (velocity weighting); empty: 1.
   std::span<const float> vertex_relax;
+  /// Gauss-Seidel: run the sweeps on the vertices renumbered class by class (smooth.cpp,
+  /// SweepLayout) — the same result, faster; false only to test that it is the same.
+  bool renumber = true;
 };
 
 /// Runs the schedule on `x` (in place). `constraint` may be null (no projection at all).
-/// `progress` receives the completed fraction of all sweeps.
-SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> triangles,
+/// `progress` receives the completed fraction of all sweeps. The Gauss-Seidel sweeps renumber the
+/// vertices for the duration of the call (the triangles' corners with them); both come back in
+/// their own numbering.
+SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<Triangle> triangles,
                             const ShellConstraint* constraint, const SmoothOptions& options,
                             const std::function<void(double)>& progress = {});
 
 /// No constraint at all.
-inline SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> triangles, std::nullptr_t,
+inline SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<Triangle> triangles, std::nullptr_t,
                                    const SmoothOptions& options, const std::function<void(double)>& progress = {}) {
   return smooth_surface(x, triangles, static_cast<const ShellConstraint*>(nullptr), options, progress);
 }
 
 /// The same schedule with ellipsoid constraints (anisotropic kernels); `constraint` may be null.
-SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<const Triangle> triangles,
+SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<Triangle> triangles,
                             const EllipsoidConstraint* constraint, const SmoothOptions& options,
                             const std::function<void(double)>& progress = {});
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <random>
+#include <set>
 
 #include "smooth/adjacency.hpp"
 #include "smooth/cotangent_impl.hpp"
@@ -52,6 +53,37 @@ TEST(Adjacency, OctahedronRowsAreSortedNeighbours) {
   for (uint32_t i = 0; i < 6; ++i) {
     EXPECT_EQ(adj.row(i).size(), 4u);
     EXPECT_EQ(adj.tri_offsets[i + 1] - adj.tri_offsets[i], 4u);
+  }
+}
+
+// renumber_adjacency permutes the rows and relabels their entries in place: the same rows (as
+// sets) as the adjacency built from the relabelled triangles, each in its old order.
+TEST(Adjacency, RenumberedRowsAreTheRelabelledMeshsRowsInTheirOldOrder) {
+  const TriangleMesh m = perturbed_sphere(3, 0.01f, 3);
+  const std::size_t nv = m.vertices.size();
+  const Adjacency adj = build_adjacency(nv, m.triangles);
+  std::vector<uint32_t> order(nv);
+  for (std::size_t n = 0; n < nv; ++n) order[n] = uint32_t((n * 37 + 11) % nv);  // 37 is prime to nv
+  ASSERT_EQ(std::set<uint32_t>(order.begin(), order.end()).size(), nv);
+  std::vector<uint32_t> rank(nv);
+  for (std::size_t n = 0; n < nv; ++n) rank[order[n]] = uint32_t(n);
+  std::vector<Triangle> relabelled = m.triangles;
+  for (Triangle& t : relabelled)
+    for (uint32_t& v : t) v = rank[v];
+  const Adjacency expected = build_adjacency(nv, relabelled);
+  const Adjacency got = renumber_adjacency(adj, order);
+  ASSERT_EQ(got.vertex_count(), nv);
+  for (uint32_t n = 0; n < nv; ++n) {
+    std::vector<uint32_t> row(got.row(n).begin(), got.row(n).end());
+    std::vector<uint32_t> old_row;
+    for (uint32_t j : adj.row(order[n])) old_row.push_back(rank[j]);
+    EXPECT_EQ(row, old_row) << "row " << n << " keeps its old order";
+    std::sort(row.begin(), row.end());
+    EXPECT_EQ(row, std::vector<uint32_t>(expected.row(n).begin(), expected.row(n).end())) << n;
+    EXPECT_TRUE(std::equal(got.tri_ids.begin() + got.tri_offsets[n], got.tri_ids.begin() + got.tri_offsets[n + 1],
+                           expected.tri_ids.begin() + expected.tri_offsets[n],
+                           expected.tri_ids.begin() + expected.tri_offsets[n + 1]))
+        << "triangles of " << n;
   }
 }
 

@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <numeric>
 #include <optional>
 
 #include "common/huge_pages.hpp"
@@ -84,20 +85,21 @@ SweepLayout sweep_layout(const Adjacency& adj, bool renumber) {
   const std::vector<uint16_t> ca = greedy_colors(adj, 1), cb = greedy_colors(adj, 2);
   const std::size_t na = nv == 0 ? 1 : std::size_t(*std::max_element(ca.begin(), ca.end())) + 1;
   const std::size_t nb = nv == 0 ? 1 : std::size_t(*std::max_element(cb.begin(), cb.end())) + 1;
-  // Counting sort by (chunk, B colour, A colour), stable in the original index.
-  const std::size_t groups = na * nb;
-  auto group = [&](std::size_t i) { return (i / kSweepChunk) * groups + cb[i] * na + ca[i]; };
-  std::vector<uint32_t> start((nv + kSweepChunk - 1) / kSweepChunk * groups + 1, 0);
-  for (std::size_t i = 0; i < nv; ++i) ++start[group(i) + 1];
-  for (std::size_t k = 0; k + 1 < start.size(); ++k) start[k + 1] += start[k];
   SweepLayout layout;
   if (renumber) {
+    // Each chunk sorted by (B colour, A colour, original index), in parallel and in memory
+    // independent of the number of colours.
     resize_huge(layout.order, nv);
     resize_huge(layout.rank, nv);
-    for (uint32_t i = 0; i < nv; ++i) {
-      layout.rank[i] = start[group(i)]++;
-      layout.order[layout.rank[i]] = i;
-    }
+    tbb::parallel_for(std::size_t(0), (nv + kSweepChunk - 1) / kSweepChunk, [&](std::size_t q) {
+      const auto b = layout.order.begin() + std::ptrdiff_t(q * kSweepChunk);
+      const auto e = layout.order.begin() + std::ptrdiff_t(std::min(nv, (q + 1) * kSweepChunk));
+      std::iota(b, e, uint32_t(q * kSweepChunk));
+      std::sort(b, e, [&](uint32_t i, uint32_t j) {
+        return cb[i] != cb[j] ? cb[i] < cb[j] : (ca[i] != ca[j] ? ca[i] < ca[j] : i < j);
+      });
+      for (auto it = b; it != e; ++it) layout.rank[*it] = uint32_t(it - layout.order.begin());
+    });
   }
   auto original = [&](uint32_t n) { return renumber ? layout.order[n] : n; };
   // The runs: maximal ranges of one (chunk, colour), listed by colour, chunks in order.

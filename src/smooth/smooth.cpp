@@ -128,19 +128,26 @@ SweepLayout sweep_layout(const Adjacency& adj, bool renumber) {
 }
 
 /// Renumbers the mesh (positions and triangle corners) by `rank` (old index → new) for the
-/// lifetime of the object, and back when it ends (also when the sweeps throw).
+/// lifetime of the object, and back when it ends (also when the sweeps throw). Each direction
+/// allocates before it changes anything, so a failed allocation leaves the mesh as it was; the way
+/// back runs after the sweeps' arrays are freed (on return or unwinding), so its 16 bytes a vertex
+/// are there to take.
 class Renumbered {
  public:
   Renumbered(std::vector<Vec3f>& x, std::span<Triangle> triangles, std::span<const uint32_t> rank)
       : x_(x), triangles_(triangles), rank_(rank) {
+    std::vector<Vec3f> y = positions();
     relabel(rank);
-    permute([&](std::vector<Vec3f>& y, std::size_t i) { y[rank_[i]] = x_[i]; });
+    parallel_n(x_.size(), [&](std::size_t i) { y[rank_[i]] = x_[i]; });
+    x_.swap(y);
   }
   ~Renumbered() {
+    std::vector<Vec3f> y = positions();
     std::vector<uint32_t> order(rank_.size());
     parallel_n(rank_.size(), [&](std::size_t i) { order[rank_[i]] = uint32_t(i); });
     relabel(order);
-    permute([&](std::vector<Vec3f>& y, std::size_t i) { y[i] = x_[rank_[i]]; });
+    parallel_n(x_.size(), [&](std::size_t i) { y[i] = x_[rank_[i]]; });
+    x_.swap(y);
   }
   Renumbered(const Renumbered&) = delete;
   Renumbered& operator=(const Renumbered&) = delete;
@@ -157,12 +164,11 @@ class Renumbered {
       for (uint32_t& v : triangles_[k]) v = to[v];
     });
   }
-  template <class F>
-  void permute(F&& move) {
+  /// Storage for the permuted positions (read at random by the sweeps: on huge pages).
+  std::vector<Vec3f> positions() const {
     std::vector<Vec3f> y;
     resize_huge(y, x_.size());
-    parallel_n(x_.size(), [&](std::size_t n) { move(y, n); });
-    x_.swap(y);
+    return y;
   }
   std::vector<Vec3f>& x_;
   std::span<Triangle> triangles_;

@@ -102,12 +102,7 @@ void NeighbourCache::build(const ShellConstraint& c, std::span<const Vec3f> x) {
   make_lists(x, [&](uint32_t i, Vec3f y) { refresh(c, i, y); });
 }
 
-Vec3f NeighbourCache::project(const ShellConstraint& c, uint32_t i, Vec3f x, Vec3f from) {
-  // The nearest distance D is 1-Lipschitz: a vertex that moved m ≤ slack from where its last
-  // projection left it (with D − r_inner ≥ slack and r_outer − D ≥ slack there) is inside its shell
-  // without any query, and project_with would return it unchanged. The margins keep this exact
-  // under rounding (project_with accepts 4e-6 outside the shell).
-  if (still_inside(i, length(x - from))) return x;
+Vec3f NeighbourCache::project_moved(const ShellConstraint& c, uint32_t i, Vec3f x) {
   CachedParticleList& e = entries_[i];
   float last_dist2 = -1;
   const Vec3f out = project_with(c, x, [&](Vec3f y) {
@@ -202,10 +197,7 @@ void EllipsoidCache::build(const EllipsoidConstraint& c, std::span<const Vec3f> 
   make_lists(x, [&](uint32_t i, Vec3f y) { refresh(c, i, y); });
 }
 
-Vec3f EllipsoidCache::project(const EllipsoidConstraint& c, uint32_t i, Vec3f x, Vec3f from) {
-  // The metric distance to the metric-nearest particle is L-Lipschitz: a vertex that moved m with
-  // L·m ≤ slack from where its last projection left it is still inside its shell.
-  if (still_inside(i, lipschitz_ * length(x - from))) return x;
+Vec3f EllipsoidCache::project_moved(const EllipsoidConstraint& c, uint32_t i, Vec3f x) {
   float last_distance = -1;
   const Vec3f out = project_ellipsoid_with(c, x, [&](Vec3f y) { return nearest(c, i, y); }, &last_distance);
   set_slack(i, last_distance, c.r_inner, c.r_outer);  // out measured last_distance (−1: unknown)

@@ -105,9 +105,19 @@ class NeighbourCache : public CachedParticleLists<4> {
   /// where the vertex was before the move being projected, i.e. where its previous projection
   /// left it (any value the first time): a vertex that moved less than its slack from there is
   /// still inside its shell (its nearest distance is 1-Lipschitz) and returned at once.
-  Vec3f project(const ShellConstraint& c, uint32_t i, Vec3f x, Vec3f from);
+  Vec3f project(const ShellConstraint& c, uint32_t i, Vec3f x, Vec3f from) {
+    // The nearest distance D is 1-Lipschitz: a vertex that moved m ≤ slack from where its last
+    // projection left it (with D − r_inner ≥ slack and r_outer − D ≥ slack there) is inside its
+    // shell without any query, and project_with would return it unchanged. The margins keep this
+    // exact under rounding (project_with accepts 4e-6 outside the shell). Inline: most calls end
+    // here.
+    if (still_inside(i, length(x - from))) return x;
+    return project_moved(c, i, x);
+  }
 
  private:
+  /// project for a vertex that may have left its shell.
+  Vec3f project_moved(const ShellConstraint& c, uint32_t i, Vec3f x);
   void refresh(const ShellConstraint& c, uint32_t i, Vec3f y);
   HashGrid::Nearest scan(const ShellConstraint& c, uint32_t i, Vec3f y, float moved) const;
   float margin_ = 0;
@@ -150,9 +160,15 @@ class EllipsoidCache : public CachedParticleLists<8> {
   void build(const EllipsoidConstraint& c, std::span<const Vec3f> x);
   /// As NeighbourCache::project (`from`: where the previous projection left the vertex; the
   /// slack is in metric units).
-  Vec3f project(const EllipsoidConstraint& c, uint32_t i, Vec3f x, Vec3f from);
+  Vec3f project(const EllipsoidConstraint& c, uint32_t i, Vec3f x, Vec3f from) {
+    // The metric distance to the metric-nearest particle is L-Lipschitz: a vertex that moved m
+    // with L·m ≤ slack from where its last projection left it is still inside its shell.
+    if (still_inside(i, lipschitz_ * length(x - from))) return x;
+    return project_moved(c, i, x);
+  }
 
  private:
+  Vec3f project_moved(const EllipsoidConstraint& c, uint32_t i, Vec3f x);
   void refresh(const EllipsoidConstraint& c, uint32_t i, Vec3f y);
   MetricNearest scan(const EllipsoidConstraint& c, uint32_t i, Vec3f y, float moved) const;
   MetricNearest nearest(const EllipsoidConstraint& c, uint32_t i, Vec3f y);

@@ -12,12 +12,19 @@
 
 namespace meniscus {
 
+/// The larger and smaller of two floats, one instruction each (maxss, minss): std::fmax and
+/// std::fmin are calls into libm on x86-64 (their NaN rules have no instruction), and the
+/// projection of every vertex that left its shell made three of them. Equal to fmax and fmin for
+/// all but NaN arguments, which these positions and radii never are.
+MENISCUS_HD inline float max_of(float a, float b) { return a > b ? a : b; }
+MENISCUS_HD inline float min_of(float a, float b) { return a < b ? a : b; }
+
 /// How far a float position of x's magnitude may be from where it was meant to be: each
 /// coordinate rounds by up to half an ulp of the largest, √3/2 ulp in all, and an ulp is at most
 /// FLT_EPSILON times the coordinate. A point projected onto a shell lands up to this far off it.
 MENISCUS_HD inline float position_rounding(Vec3f x) {
   constexpr float kEpsilon = 1.1920929e-7f;  // FLT_EPSILON
-  return kEpsilon * std::fmax(std::fabs(x.x), std::fmax(std::fabs(x.y), std::fabs(x.z)));
+  return kEpsilon * max_of(std::fabs(x.x), max_of(std::fabs(x.y), std::fabs(x.z)));
 }
 
 /// A shell [r_inner, r_outer] as the projections test and target it: accepted within a few ulps
@@ -29,7 +36,7 @@ struct ShellBounds {
   float target_in, target_out;  ///< where a projection puts a vertex that was inside / outside
 };
 MENISCUS_HD inline float accepted_inner(float r_inner, float slop) {
-  return std::fmax(r_inner * (1.0f - 2e-6f) - slop, 0.0f);
+  return max_of(r_inner * (1.0f - 2e-6f) - slop, 0.0f);
 }
 MENISCUS_HD inline ShellBounds shell_bounds(float r_inner, float r_outer, float slop) {
   return {accepted_inner(r_inner, slop), r_outer * (1.0f + 2e-6f) + slop, r_inner * (1.0f + 1e-6f) + slop,
@@ -128,7 +135,7 @@ MENISCUS_HD Vec3f project_with(Vec3f x, float r_inner, float r_outer, const Vec3
   const Vec3f p = points[first];
   const Vec3f u = x == p ? Vec3f{0, 0, 1} : normalized(x - p);
   constexpr int kSteps = 8;
-  const float t_x = std::fmin(std::fmax(length(x - p), target_in), target_out);
+  const float t_x = min_of(max_of(length(x - p), target_in), target_out);
   auto search_ray = [&](Vec3f dir, Vec3f* out) {
     return try_shell_distances(t_x, target_in, target_out, kSteps, [&](float t) {
       if (!clear(p + dir * t)) return false;
@@ -281,7 +288,7 @@ MENISCUS_HD Vec3f project_ellipsoid_with(Vec3f x, float r_inner, float r_outer, 
   const Vec3f u = x == p ? Vec3f{0, 0, 1} : normalized(x - p);
   constexpr int kSteps = 12;
   const ShellBounds first_shell = shell_of(first);
-  const float t_x = std::fmin(std::fmax(metric_distance(a, x, p), first_shell.target_in), first_shell.target_out);
+  const float t_x = min_of(max_of(metric_distance(a, x, p), first_shell.target_in), first_shell.target_out);
   auto search_ray = [&](Vec3f dir, Vec3f* out) {
     const float mu = length(a * dir);
     return try_shell_distances(t_x, first_shell.target_in, first_shell.target_out, kSteps, [&](float t) {

@@ -5,6 +5,7 @@
 #include <tbb/parallel_scan.h>
 
 #include <algorithm>
+#include <atomic>
 
 #include "common/huge_pages.hpp"
 
@@ -13,21 +14,37 @@ namespace meniscus {
 Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> triangles) {
   Adjacency adj;
   const std::size_t nv = vertex_count;
+  auto parallel_n = [](std::size_t n, std::size_t grain, auto&& f) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain), [&](const auto& r) {
+      for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
+    });
+  };
   // Read at random (the rows by every sweep, the triangle lists by the operator's build): on huge
   // pages (huge_pages.hpp).
+  // The triangle lists: counted and filled in parallel through atomic cursors, then each list
+  // sorted — ascending, as a serial fill in triangle order would leave it.
   assign_huge(adj.tri_offsets, nv + 1, 0u);
-  for (const Triangle& t : triangles)
-    for (uint32_t v : t) ++adj.tri_offsets[v + 1];
+  parallel_n(triangles.size(), 16384, [&](std::size_t f) {
+    for (uint32_t v : triangles[f]) std::atomic_ref<uint32_t>(adj.tri_offsets[v + 1]).fetch_add(1, std::memory_order_relaxed);
+  });
   for (std::size_t i = 0; i < nv; ++i) adj.tri_offsets[i + 1] += adj.tri_offsets[i];
   resize_huge(adj.tri_ids, adj.tri_offsets[nv]);
   {
     std::vector<uint32_t> fill(adj.tri_offsets.begin(), adj.tri_offsets.end() - 1);
-    for (uint32_t f = 0; f < triangles.size(); ++f)
-      for (uint32_t v : triangles[f]) adj.tri_ids[fill[v]++] = f;
+    parallel_n(triangles.size(), 16384, [&](std::size_t f) {
+      for (uint32_t v : triangles[f])
+        adj.tri_ids[std::atomic_ref<uint32_t>(fill[v]).fetch_add(1, std::memory_order_relaxed)] = uint32_t(f);
+    });
   }
+  parallel_n(nv, 4096, [&](std::size_t i) {
+    std::sort(adj.tri_ids.begin() + adj.tri_offsets[i], adj.tri_ids.begin() + adj.tri_offsets[i + 1]);
+  });
 
-  // Each vertex's neighbours come from its incident triangles: collect, sort, unique — first to
-  // count, then to write, so the rows land in one array without per-vertex allocation.
+  // Each vertex's neighbours come from its incident triangles: collect, sort, unique. A vertex
+  // whose triangles close a fan (every vertex of a closed manifold mesh, such as the extraction's)
+  // has as many neighbours as triangles, so the rows are first laid out on the triangle lists'
+  // offsets and written in one pass; only if some vertex has another count (an open or pinched
+  // fan) are they counted first and written again.
   auto gather = [&](uint32_t i, uint32_t* out) {
     uint32_t n = 0;
     for (uint32_t k = adj.tri_offsets[i]; k < adj.tri_offsets[i + 1]; ++k) {
@@ -38,6 +55,28 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
     std::sort(out, out + n);
     return uint32_t(std::unique(out, out + n) - out);
   };
+  // Writes the rows at `offsets`; false if a row's length is not what they say.
+  auto write_rows = [&](const std::vector<uint32_t>& offsets) {
+    std::atomic<bool> fits{true};
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 2048), [&](const auto& r) {
+      std::vector<uint32_t> scratch;
+      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+        scratch.resize(2 * (adj.tri_offsets[i + 1] - adj.tri_offsets[i]));
+        const uint32_t n = gather(uint32_t(i), scratch.data());
+        if (n != offsets[i + 1] - offsets[i]) {
+          fits.store(false, std::memory_order_relaxed);
+          return;
+        }
+        std::copy(scratch.begin(), scratch.begin() + n, adj.neighbors.begin() + offsets[i]);
+      }
+    });
+    return fits.load();
+  };
+  resize_huge(adj.offsets, nv + 1);
+  std::copy(adj.tri_offsets.begin(), adj.tri_offsets.end(), adj.offsets.begin());
+  resize_huge(adj.neighbors, adj.offsets[nv]);
+  if (write_rows(adj.offsets)) return adj;
+
   std::vector<uint32_t> counts(nv + 1, 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 2048), [&](const auto& r) {
     std::vector<uint32_t> scratch;
@@ -46,18 +85,11 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
       counts[i + 1] = gather(uint32_t(i), scratch.data());
     }
   });
-  resize_huge(adj.offsets, nv + 1);
   adj.offsets[0] = 0;
   for (std::size_t i = 0; i < nv; ++i) adj.offsets[i + 1] = adj.offsets[i] + counts[i + 1];
+  std::vector<uint32_t>().swap(adj.neighbors);
   resize_huge(adj.neighbors, adj.offsets[nv]);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 2048), [&](const auto& r) {
-    std::vector<uint32_t> scratch;
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      scratch.resize(2 * (adj.tri_offsets[i + 1] - adj.tri_offsets[i]));
-      const uint32_t n = gather(uint32_t(i), scratch.data());
-      std::copy(scratch.begin(), scratch.begin() + n, adj.neighbors.begin() + adj.offsets[i]);
-    }
-  });
+  write_rows(adj.offsets);
   return adj;
 }
 

@@ -56,6 +56,43 @@ TEST(Adjacency, OctahedronRowsAreSortedNeighbours) {
   }
 }
 
+// build_adjacency lays the rows out on the triangle lists' offsets (a closed fan has as many
+// neighbours as triangles) and counts them first only when some fan is open: both paths against a
+// brute-force reference — rows the sorted distinct neighbours, triangle lists ascending — on a
+// closed sphere and on the same sphere with every fifth triangle removed (open fans).
+TEST(Adjacency, RowsAndTriangleListsMatchABruteForceReferenceOnClosedAndOpenMeshes) {
+  const TriangleMesh closed = perturbed_sphere(6, 0.01f, 5);
+  TriangleMesh open = closed;
+  open.triangles.clear();
+  for (std::size_t f = 0; f < closed.triangles.size(); ++f)
+    if (f % 5 != 2) open.triangles.push_back(closed.triangles[f]);
+  for (const TriangleMesh* m : {&closed, static_cast<const TriangleMesh*>(&open)}) {
+    const std::size_t nv = m->vertices.size();
+    ASSERT_GT(nv, 4096u) << "more than one parallel grain";
+    std::vector<std::set<uint32_t>> rows(nv);
+    std::vector<std::vector<uint32_t>> tris(nv);
+    for (uint32_t f = 0; f < m->triangles.size(); ++f)
+      for (uint32_t v : m->triangles[f]) {
+        tris[v].push_back(f);
+        for (uint32_t u : m->triangles[f])
+          if (u != v) rows[v].insert(u);
+      }
+    std::size_t open_fans = 0;
+    for (std::size_t i = 0; i < nv; ++i) open_fans += rows[i].size() != tris[i].size();
+    EXPECT_EQ(open_fans == 0, m == &closed) << "the closed sphere has only closed fans, the open one not";
+    const Adjacency adj = build_adjacency(nv, m->triangles);
+    ASSERT_EQ(adj.vertex_count(), nv);
+    for (uint32_t i = 0; i < nv; ++i) {
+      ASSERT_EQ(std::vector<uint32_t>(adj.row(i).begin(), adj.row(i).end()),
+                std::vector<uint32_t>(rows[i].begin(), rows[i].end()))
+          << (m == &closed ? "closed" : "open") << " row " << i;
+      ASSERT_EQ(std::vector<uint32_t>(adj.tri_ids.begin() + adj.tri_offsets[i], adj.tri_ids.begin() + adj.tri_offsets[i + 1]),
+                tris[i])
+          << (m == &closed ? "closed" : "open") << " triangles of " << i;
+    }
+  }
+}
+
 // renumber_adjacency permutes the rows and relabels their entries in place: the same rows (as
 // sets) as the adjacency built from the relabelled triangles, each in its old order.
 TEST(Adjacency, RenumberedRowsAreTheRelabelledMeshsRowsInTheirOldOrder) {

@@ -27,6 +27,7 @@ namespace {
 struct Column {
   std::string name;
   std::vector<StageTime> stages;
+  std::vector<StageTime> smooth_parts;  ///< the smoothing stage's set-up, A and B sweeps (meniscus)
   double total = 0;
   std::size_t peak_delta = 0;
   MeshQuality quality;
@@ -50,6 +51,8 @@ Column run_meniscus(const std::string& name, const Scene& scene, const Params& p
     }
   }
   c.stages = best.stats.stages;
+  const SmoothingStats& sm = best.stats.smoothing;
+  c.smooth_parts = {{"setup", sm.setup_seconds}, {"A sweeps", sm.a_sweeps_seconds}, {"B sweeps", sm.b_sweeps_seconds}};
   c.total = best.stats.total_seconds();
   c.quality = measure_quality(best.mesh, scene, samples);
   const int sweeps = best.params.steps_a + best.params.steps_b + best.params.steps_free;
@@ -105,7 +108,16 @@ void print_table(const Scene& scene, const Params& p, const std::vector<Column>&
   for (const Column& c : cols)
     for (const StageTime& s : c.stages)
       if (std::find(stages.begin(), stages.end(), s.name) == stages.end()) stages.push_back(s.name);
-  for (const std::string& s : stages) row("  " + s + " [s]", [&](const Column& c) { return fmt_time(stage_seconds(c, s)); });
+  for (const std::string& s : stages) {
+    row("  " + s + " [s]", [&](const Column& c) { return fmt_time(stage_seconds(c, s)); });
+    if (s != "smooth") continue;
+    for (const char* part : {"setup", "A sweeps", "B sweeps"})
+      row(fmt::format("    {} [s]", part), [&](const Column& c) {
+        for (const StageTime& t : c.smooth_parts)
+          if (t.name == part && stage_seconds(c, "smooth") > 0) return fmt_time(t.seconds);
+        return fmt_time(-1);
+      });
+  }
   row("total [s]", [](const Column& c) { return fmt_time(c.total); });
   row("peak RSS delta [MB]", [](const Column& c) { return fmt::format("{:.0f}", double(c.peak_delta) / 1e6); });
   row("particles/s", [&](const Column& c) { return fmt_rate(double(scene.particles.size()) / c.total); });
@@ -212,6 +224,11 @@ int main(int argc, char** argv) {
         nlohmann::ordered_json st = nlohmann::ordered_json::object();
         for (const StageTime& s : c.stages) st[s.name] = s.seconds;
         k["stages"] = st;
+        if (!c.smooth_parts.empty()) {
+          nlohmann::ordered_json parts = nlohmann::ordered_json::object();
+          for (const StageTime& s : c.smooth_parts) parts[s.name] = s.seconds;
+          k["smooth_parts"] = parts;
+        }
         k["total_seconds"] = c.total;
         k["peak_rss_delta_bytes"] = c.peak_delta;
         k["particles_per_s"] = double(scene.particles.size()) / c.total;

@@ -451,7 +451,10 @@ std::string stats_to_json(const Result& result) {
   j["smoothing"] = {{"energy_start", s.smoothing.energy_start},
                     {"energy_final", s.smoothing.energy_final},
                     {"relax_halvings", s.smoothing.relax_halvings},
-                    {"relax_b_final", s.smoothing.relax_b_final}};
+                    {"relax_b_final", s.smoothing.relax_b_final},
+                    {"setup_seconds", s.smoothing.setup_seconds},
+                    {"a_sweeps_seconds", s.smoothing.a_sweeps_seconds},
+                    {"b_sweeps_seconds", s.smoothing.b_sweeps_seconds}};
   nlohmann::ordered_json q;
   q["spacing"] = p.spacing;
   q["spacing_estimated"] = s.spacing_estimated;

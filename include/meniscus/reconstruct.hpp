@@ -24,6 +24,11 @@ struct SmoothingStats {
   double energy_final = 0;   ///< and after the last one (same operator)
   int relax_halvings = 0;    ///< B sweeps redone with half the damping because the energy rose
   double relax_b_final = 0;  ///< the damping ω of the last B sweep
+  // Where the smoothing stage's time went (CPU backend; the CUDA backend reports 0 and times its
+  // set-up as stages of its own):
+  double setup_seconds = 0;     ///< adjacency, colour classes, renumbering, particle lists, B operator
+  double a_sweeps_seconds = 0;  ///< the constrained graph-Laplacian sweeps
+  double b_sweeps_seconds = 0;  ///< the B sweeps, constrained and free (redone ones included)
 };
 
 struct Stats {

@@ -76,6 +76,16 @@ TEST(Pipeline, BSweepsLowerTheEnergyFarFromTheOrigin) {
   EXPECT_EQ(s.relax_b_final, 1.0);
   EXPECT_GT(s.energy_start, 0.0);
   EXPECT_LT(s.energy_final, 0.6 * s.energy_start) << s.energy_start << " -> " << s.energy_final;
+  // The smoothing stage's time split: each part ran, and together they are the stage.
+  double stage = -1;
+  for (const StageTime& t : r.stats.stages)
+    if (t.name == "smooth") stage = t.seconds;
+  EXPECT_GT(s.setup_seconds, 0.0);
+  EXPECT_GT(s.a_sweeps_seconds, 0.0);
+  EXPECT_GT(s.b_sweeps_seconds, 0.0);
+  const double parts = s.setup_seconds + s.a_sweeps_seconds + s.b_sweeps_seconds;
+  EXPECT_LE(parts, stage * 1.0001 + 1e-6);
+  EXPECT_GT(parts, 0.9 * stage) << "the parts leave " << stage - parts << " s of " << stage << " s unaccounted";
 }
 
 // The same for the ellipsoid constraints of the anisotropic field (their tolerance, in each

@@ -51,6 +51,9 @@ TEST(SmoothSchedule, BStepsWithoutAStepsDoNotDiverge) {
     const SmoothReport r = smooth_surface(x, raw.mesh.triangles, &c, o);
     ASSERT_TRUE(all_finite(x)) << to_string(solver);
     EXPECT_LT(r.energy_final, r.energy_start) << to_string(solver);
+    EXPECT_EQ(r.a_sweeps_seconds, 0.0) << "no A sweep ran";
+    EXPECT_GT(r.b_sweeps_seconds, 0.0);
+    EXPECT_GT(r.setup_seconds, 0.0);
     // Free sweeps move vertices only a little: still near the shell.
     const ConstraintReport res = constraint_residual(x, raw.particles.positions, 0.05, 0.1);
     EXPECT_LT(res.max_violation, 0.02) << to_string(solver);

@@ -272,7 +272,13 @@ void print_summary(const SurfaceArgs& a, const FrameFiles& f, const Result& resu
   for (const std::string& w : result.stats.warnings) fmt::print(stderr, "warning: {}\n", w);
   const Stats& s = result.stats;
   std::string stages;
-  for (const StageTime& t : s.stages) stages += fmt::format("{}{} {:.3f}s", stages.empty() ? "" : ", ", t.name, t.seconds);
+  const SmoothingStats& sm = s.smoothing;
+  for (const StageTime& t : s.stages) {
+    stages += fmt::format("{}{} {:.3f}s", stages.empty() ? "" : ", ", t.name, t.seconds);
+    if (t.name == "smooth" && sm.a_sweeps_seconds + sm.b_sweeps_seconds > 0)  // the CPU's split
+      stages += fmt::format(" (set-up {:.3f}s, A {:.3f}s, B {:.3f}s)", sm.setup_seconds, sm.a_sweeps_seconds,
+                            sm.b_sweeps_seconds);
+  }
   fmt::print(stderr, "{} particles → {} vertices, {} triangles in {:.3f}s on {}, peak memory {:.0f} MB\n",
              s.particles, s.vertices, s.triangles, s.total_seconds(),
              s.backend == "cuda" ? std::string("the CUDA device") : fmt::format("{} threads", s.threads),

@@ -140,6 +140,8 @@ TEST(Cli, ProgressBarOnlyOnATerminal) {
   ASSERT_EQ(run_command(job, &out), 0) << out;
   EXPECT_EQ(out.find('\r'), std::string::npos) << out;
   EXPECT_NE(out.find("triangles"), std::string::npos) << out;
+  EXPECT_NE(out.find("smooth "), std::string::npos) << out;
+  EXPECT_NE(out.find("(set-up "), std::string::npos) << "the smoothing's split: " << out;
 }
 
 TEST(Cli, SequencesReportFailedFramesAndGoOn) {

@@ -8,35 +8,31 @@
 #include <atomic>
 
 #include "common/huge_pages.hpp"
+#include "common/parallel_index.hpp"
 
 namespace meniscus {
 
 Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> triangles) {
   Adjacency adj;
   const std::size_t nv = vertex_count;
-  auto parallel_n = [](std::size_t n, std::size_t grain, auto&& f) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain), [&](const auto& r) {
-      for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
-    });
-  };
   // Read at random (the rows by every sweep, the triangle lists by the operator's build): on huge
   // pages (huge_pages.hpp).
   // The triangle lists: counted and filled in parallel through atomic cursors, then each list
   // sorted — ascending, as a serial fill in triangle order would leave it.
   assign_huge(adj.tri_offsets, nv + 1, 0u);
-  parallel_n(triangles.size(), 16384, [&](std::size_t f) {
+  parallel_for_index(triangles.size(), 16384, [&](std::size_t f) {
     for (uint32_t v : triangles[f]) std::atomic_ref<uint32_t>(adj.tri_offsets[v + 1]).fetch_add(1, std::memory_order_relaxed);
   });
   for (std::size_t i = 0; i < nv; ++i) adj.tri_offsets[i + 1] += adj.tri_offsets[i];
   resize_huge(adj.tri_ids, adj.tri_offsets[nv]);
   {
     std::vector<uint32_t> fill(adj.tri_offsets.begin(), adj.tri_offsets.end() - 1);
-    parallel_n(triangles.size(), 16384, [&](std::size_t f) {
+    parallel_for_index(triangles.size(), 16384, [&](std::size_t f) {
       for (uint32_t v : triangles[f])
         adj.tri_ids[std::atomic_ref<uint32_t>(fill[v]).fetch_add(1, std::memory_order_relaxed)] = uint32_t(f);
     });
   }
-  parallel_n(nv, 4096, [&](std::size_t i) {
+  parallel_for_index(nv, 4096, [&](std::size_t i) {
     std::sort(adj.tri_ids.begin() + adj.tri_offsets[i], adj.tri_ids.begin() + adj.tri_offsets[i + 1]);
   });
 
@@ -55,20 +51,24 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
     std::sort(out, out + n);
     return uint32_t(std::unique(out, out + n) - out);
   };
-  // Writes the rows at `offsets`; false if a row's length is not what they say.
-  auto write_rows = [&](const std::vector<uint32_t>& offsets) {
-    std::atomic<bool> fits{true};
+  // Calls row(i, entries, n) with each vertex's gathered row, in parallel.
+  auto for_each_row = [&](auto&& row) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 2048), [&](const auto& r) {
       std::vector<uint32_t> scratch;
       for (std::size_t i = r.begin(); i != r.end(); ++i) {
         scratch.resize(2 * (adj.tri_offsets[i + 1] - adj.tri_offsets[i]));
-        const uint32_t n = gather(uint32_t(i), scratch.data());
-        if (n != offsets[i + 1] - offsets[i]) {
-          fits.store(false, std::memory_order_relaxed);
-          return;
-        }
-        std::copy(scratch.begin(), scratch.begin() + n, adj.neighbors.begin() + offsets[i]);
+        row(i, scratch.data(), gather(uint32_t(i), scratch.data()));
       }
+    });
+  };
+  // Writes the rows at `offsets`; false if a row's length is not what they say.
+  auto write_rows = [&](const std::vector<uint32_t>& offsets) {
+    std::atomic<bool> fits{true};
+    for_each_row([&](std::size_t i, const uint32_t* row, uint32_t n) {
+      if (n == offsets[i + 1] - offsets[i])
+        std::copy(row, row + n, adj.neighbors.begin() + offsets[i]);
+      else
+        fits.store(false, std::memory_order_relaxed);
     });
     return fits.load();
   };
@@ -78,13 +78,7 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
   if (write_rows(adj.offsets)) return adj;
 
   std::vector<uint32_t> counts(nv + 1, 0);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 2048), [&](const auto& r) {
-    std::vector<uint32_t> scratch;
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      scratch.resize(2 * (adj.tri_offsets[i + 1] - adj.tri_offsets[i]));
-      counts[i + 1] = gather(uint32_t(i), scratch.data());
-    }
-  });
+  for_each_row([&](std::size_t i, const uint32_t*, uint32_t n) { counts[i + 1] = n; });
   adj.offsets[0] = 0;
   for (std::size_t i = 0; i < nv; ++i) adj.offsets[i + 1] = adj.offsets[i] + counts[i + 1];
   std::vector<uint32_t>().swap(adj.neighbors);
@@ -96,12 +90,7 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
 Adjacency renumber_adjacency(const Adjacency& adj, std::span<const uint32_t> order) {
   const std::size_t nv = adj.vertex_count();
   std::vector<uint32_t> rank(nv);
-  auto parallel_n = [](std::size_t n, auto&& f) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
-      for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
-    });
-  };
-  parallel_n(nv, [&](std::size_t n) { rank[order[n]] = uint32_t(n); });
+  parallel_for_index(nv, 4096, [&](std::size_t n) { rank[order[n]] = uint32_t(n); });
   // Rows of old vertex order[n], in new order; the neighbour entries relabelled, in place.
   auto permute_rows = [&](const std::vector<uint32_t>& offsets, const std::vector<uint32_t>& entries,
                           std::vector<uint32_t>& new_offsets, std::vector<uint32_t>& new_entries, bool relabel) {
@@ -110,7 +99,7 @@ Adjacency renumber_adjacency(const Adjacency& adj, std::span<const uint32_t> ord
     for (std::size_t n = 0; n < nv; ++n)
       new_offsets[n + 1] = new_offsets[n] + (offsets[order[n] + 1] - offsets[order[n]]);
     resize_huge(new_entries, entries.size());
-    parallel_n(nv, [&](std::size_t n) {
+    parallel_for_index(nv, 4096, [&](std::size_t n) {
       uint32_t* out = new_entries.data() + new_offsets[n];
       const uint32_t b = offsets[order[n]], e = offsets[order[n] + 1];
       for (uint32_t k = b; k < e; ++k) out[k - b] = relabel ? rank[entries[k]] : entries[k];

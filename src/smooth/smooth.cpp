@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "common/huge_pages.hpp"
+#include "common/parallel_index.hpp"
 #include "smooth/adjacency.hpp"
 #include "smooth/operators.hpp"
 
@@ -24,9 +25,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 template <class F>
 void for_each_vertex(std::size_t n, F&& f) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) f(uint32_t(i));
-  });
+  parallel_for_index(n, 1024, [&](std::size_t i) { f(uint32_t(i)); });
 }
 
 /// The sweeps' vertices in chunks of this many consecutive indices: SweepLayout sorts each chunk
@@ -168,29 +167,23 @@ class Renumbered {
       : x_(x), triangles_(triangles), rank_(rank) {
     std::vector<Vec3f> y = positions();
     relabel(rank);
-    parallel_n(x_.size(), [&](std::size_t i) { y[rank_[i]] = x_[i]; });
+    parallel_for_index(x_.size(), 4096, [&](std::size_t i) { y[rank_[i]] = x_[i]; });
     x_.swap(y);
   }
   ~Renumbered() {
     std::vector<Vec3f> y = positions();
     std::vector<uint32_t> order(rank_.size());
-    parallel_n(rank_.size(), [&](std::size_t i) { order[rank_[i]] = uint32_t(i); });
+    parallel_for_index(rank_.size(), 4096, [&](std::size_t i) { order[rank_[i]] = uint32_t(i); });
     relabel(order);
-    parallel_n(x_.size(), [&](std::size_t i) { y[i] = x_[rank_[i]]; });
+    parallel_for_index(x_.size(), 4096, [&](std::size_t i) { y[i] = x_[rank_[i]]; });
     x_.swap(y);
   }
   Renumbered(const Renumbered&) = delete;
   Renumbered& operator=(const Renumbered&) = delete;
 
  private:
-  template <class F>
-  static void parallel_n(std::size_t n, F&& f) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
-      for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
-    });
-  }
   void relabel(std::span<const uint32_t> to) {
-    parallel_n(triangles_.size(), [&](std::size_t k) {
+    parallel_for_index(triangles_.size(), 4096, [&](std::size_t k) {
       for (uint32_t& v : triangles_[k]) v = to[v];
     });
   }
@@ -251,9 +244,8 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
   if (o.steps_a > 0) {
     const float w = o.relax_a;
     if (gauss_seidel) {
-      const ClassRuns& colors = layout->a;
       for (int s = 0; s < o.steps_a; ++s, tick()) {
-        for_each_in_colors(colors, [&](uint32_t i) {
+        for_each_in_colors(layout->a, [&](uint32_t i) {
           const Vec3f from = x[i];
           x[i] = from + (neighbour_mean(adj, x, i) - from) * (w * vertex_factor(i));
           project(i, from);
@@ -285,8 +277,6 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
       std::vector<uint32_t>().swap(adj.tri_offsets);
       std::vector<uint32_t>().swap(adj.tri_ids);
     }
-    static const ClassRuns kNone;
-    const ClassRuns& colors = gauss_seidel ? layout->b : kNone;
     float w = o.relax_b;
     double energy = energy_of(adj, op, x, scratch, rank);
     report.energy_start = energy;
@@ -303,7 +293,7 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
         // scratch = W x (energy_of computed it for the current x) is kept current as vertices
         // move: (B x)_i needs only the W x of i's ring, and a move of x_i changes only the W x
         // of that ring — no two vertices of a distance-2 colour class share a ring vertex.
-        for_each_in_colors(colors, [&](uint32_t i) {
+        for_each_in_colors(layout->b, [&](uint32_t i) {
           const Vec3f before = x[i];
           x[i] -= bilaplacian_row_from_wx(adj, op, scratch, i) * (w * vertex_factor(i) / op.b_diag[i]);
           if (constrained) project(i, before);
@@ -389,23 +379,28 @@ SmoothReport smooth_cached(std::vector<Vec3f>& x, std::span<Triangle> triangles,
       [&](uint32_t i) { cache.prefetch(i); }, [&] { cache.forget_slack(); }, options, progress);
 }
 
+/// smooth_cached, with the set-up's time: the whole call (the way back from the renumbering
+/// included) less the sweeps.
+template <class Cache, class Constraint>
+SmoothReport smooth_timed(std::vector<Vec3f>& x, std::span<Triangle> triangles, const Constraint* constraint,
+                          const SmoothOptions& o, const std::function<void(double)>& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  SmoothReport r = smooth_cached<Cache>(x, triangles, constraint, o, progress);
+  r.setup_seconds = std::max(seconds_since(start) - r.a_sweeps_seconds - r.b_sweeps_seconds, 0.0);
+  return r;
+}
+
 }  // namespace
 
 SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<Triangle> triangles, const ShellConstraint* constraint,
                             const SmoothOptions& o, const std::function<void(double)>& progress) {
-  const auto start = std::chrono::steady_clock::now();
-  SmoothReport r = smooth_cached<NeighbourCache>(x, triangles, constraint, o, progress);
-  r.setup_seconds = std::max(seconds_since(start) - r.a_sweeps_seconds - r.b_sweeps_seconds, 0.0);
-  return r;
+  return smooth_timed<NeighbourCache>(x, triangles, constraint, o, progress);
 }
 
 SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<Triangle> triangles,
                             const EllipsoidConstraint* constraint, const SmoothOptions& o,
                             const std::function<void(double)>& progress) {
-  const auto start = std::chrono::steady_clock::now();
-  SmoothReport r = smooth_cached<EllipsoidCache>(x, triangles, constraint, o, progress);
-  r.setup_seconds = std::max(seconds_since(start) - r.a_sweeps_seconds - r.b_sweeps_seconds, 0.0);
-  return r;
+  return smooth_timed<EllipsoidCache>(x, triangles, constraint, o, progress);
 }
 
 }  // namespace meniscus

@@ -193,8 +193,8 @@ std::size_t line_of(const std::string& text, std::size_t index) {
 // Smoothness and presets.
 
 // Smoothness s scales the whole schedule linearly from nothing (s = 0: the mesh as extracted)
-// to twice the default (s = 1), so s = 0.5 is exactly the default 40 A + 20 B + 3 free sweeps.
-constexpr double kStepsAAtFull = 80, kStepsBAtFull = 40, kStepsFreeAtFull = 6;
+// to twice the default (s = 1), so s = 0.5 is exactly the default 20 A + 15 B + 3 free sweeps.
+constexpr double kStepsAAtFull = 40, kStepsBAtFull = 30, kStepsFreeAtFull = 6;
 
 // Every preset sets the same settings (so switching presets never leaves one behind); the
 // radii go back to "derive" (0) so that r_outer_factor decides. Measured on the jittered block,
@@ -208,10 +208,10 @@ struct Preset {
 constexpr Preset kPresets[] = {
     // Coarser than 0.6 and lone droplets collapse (detail 0.5: 9 % of their volume left).
     {"preview", 0.6, 1.0, 10, 5, 0},
-    {"production", 1.0, 1.0, 40, 20, 3},
+    {"production", 1.0, 1.0, 20, 15, 3},
     // r_outer 1.25 d bridges particles up to 2.5 d apart and makes a lone droplet one
     // particle's volume (r_inner 0.625 d); no free sweeps, so every vertex stays in its shell.
-    {"droplets", 1.0, 1.25, 20, 20, 0},
+    {"droplets", 1.0, 1.25, 10, 20, 0},
 };
 
 }  // namespace

@@ -95,7 +95,10 @@ void Params::validate() const {
   require(steps_a >= 0, "steps_a", steps_a, "must be ≥ 0");
   require(steps_b >= 0, "steps_b", steps_b, "must be ≥ 0");
   require(steps_free >= 0, "steps_free", steps_free, "must be ≥ 0");
-  require(std::isfinite(relax) && relax > 0 && relax <= 1, "relax", relax, "must be in (0, 1]");
+  require(std::isfinite(relax) && relax >= 0 && relax < 2, "relax", relax,
+          "must be in (0, 2) (above 1: over-relaxed Gauss–Seidel; 0 = derive)");
+  require(solver != SmoothingSolver::jacobi || relax <= 1, "relax", relax,
+          "must be at most 1 with the Jacobi solver, which diverges when over-relaxed (use --solver gauss-seidel)");
   require(std::isfinite(relax_b) && relax_b > 0 && relax_b < 2, "relax_b", relax_b, "must be in (0, 2)");
   require(std::isfinite(iso) && iso >= 0, "iso", iso, "must be finite and ≥ 0 (0 = derive)");
   require(iso == 0 || field != FieldMethod::distance, "iso", iso,

@@ -229,6 +229,9 @@ Params resolve_params(const ParticleSet& particles, const Params& in) {
   if (p.r_outer == 0) p.r_outer = std::max(p.r_outer_factor * d, in.r_inner > 0 ? in.r_inner * 2 : 0.0);
   if (p.r_inner == 0) p.r_inner = 0.5 * p.r_outer;
   if (p.transfer_radius == 0) p.transfer_radius = 2 * d;
+  // Over-relaxed A sweeps: 20 at ω = 1.3 flatten the jittered block as 40 at ω = 1 did (README
+  // "Defaults and why"); Jacobi iterations diverge above ω = 1.
+  if (p.relax == 0) p.relax = p.solver == SmoothingSolver::gauss_seidel ? 1.3 : 1.0;
   if (p.kernel_radius == 0 && p.field != FieldMethod::distance) p.kernel_radius = 2 * d;
   // Anisotropic: λ = 0.3, not Yu & Turk's 0.9. Their centre smoothing removes the bumps of the
   // raw positions, which the constrained smoothing does here anyway; 0.9 pulls the surface

@@ -77,7 +77,7 @@ void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
       ->capture_default_str();
   cmd.add_option("--steps-free", p.steps_free, "unconstrained bilaplacian sweeps at the end")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
-  cmd.add_option("--relax", p.relax, "damping ω of the A sweeps, in (0, 1]")->capture_default_str();
+  cmd.add_option("--relax", p.relax, "relaxation ω of the A sweeps, in (0, 2); 0: 1.3 with gauss-seidel, 1 with jacobi")->capture_default_str();
   cmd.add_option("--relax-b", p.relax_b, "initial damping of the B sweeps, in (0, 2)")->capture_default_str();
   cmd.add_option("--solver", a.solver, "sweep type: gauss-seidel (coloured, in place) or jacobi")
       ->check(CLI::IsMember({"gauss-seidel", "jacobi"}))->capture_default_str();

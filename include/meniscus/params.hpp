@@ -62,10 +62,13 @@ struct Params {
   bool keep_voids = false;
 
   // --- smoothing schedule (Williams 2008) -------------------------------------------------------
-  int steps_a = 40;            ///< constrained graph-Laplacian (A) sweeps
-  int steps_b = 20;            ///< constrained bilaplacian (B) sweeps
+  int steps_a = 20;            ///< constrained graph-Laplacian (A) sweeps
+  int steps_b = 15;            ///< constrained bilaplacian (B) sweeps
   int steps_free = 3;          ///< unconstrained B sweeps at the end
-  double relax = 1.0;          ///< damping ω of the A sweeps (B sweeps use the energy-guarded relax_b)
+  /// Relaxation ω of the A sweeps, in (0, 2) with Gauss–Seidel (above 1: successive over-relaxation),
+  /// (0, 1] with Jacobi (which diverges above 1); 0: derive, 1.3 with Gauss–Seidel, 1 with Jacobi.
+  /// The B sweeps use the energy-guarded relax_b.
+  double relax = 0;
   double relax_b = 1.0;        ///< damping of the B sweeps (halved automatically when energy rises)
   SmoothingSolver solver = SmoothingSolver::gauss_seidel;
   int rebuild_b = 0;           ///< rebuild the B operator every k sweeps; 0: build once after A

@@ -8,7 +8,7 @@
 namespace meniscus {
 
 struct SmoothSchedule {
-  int steps_a = 40, steps_b = 20, steps_free = 3;
+  int steps_a = 20, steps_b = 15, steps_free = 3;
   float relax_a = 1.0f;   ///< ω of the A sweeps
   float relax_b = 1.0f;   ///< initial ω of the B sweeps; halved whenever a sweep raises the energy
   SmoothingSolver solver = SmoothingSolver::gauss_seidel;

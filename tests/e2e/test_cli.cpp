@@ -90,7 +90,8 @@ TEST(Cli, RefusesInvalidOptionsWithAClearMessageAndNoOutput) {
   const std::vector<Refusal> cases = {
       {"--r-outer -1", "--r-outer"},
       {"--r-inner 0.1 --r-outer 0.05", "r_inner"},
-      {"--relax 1.5", "relax"},
+      {"--relax 2", "relax"},
+      {"--relax 1.5 --solver jacobi", "Jacobi"},
       {"--extract spheres", "--extract"},
       {"--voxel-size 0", "--voxel-size"},
       {"--bogus-option 3", "bogus-option"},

@@ -198,7 +198,7 @@ TEST(Pipeline, RefusesBadParametersAndAbsurdSizes) {
   p.r_outer = 0.1;
   EXPECT_THROW(reconstruct(ps, p), InvalidParameter);
   p = Params{};
-  p.relax = 0;
+  p.relax = 2;
   EXPECT_THROW(reconstruct(ps, p), InvalidParameter);
   p = Params{};
   p.transfer = {"nope"};

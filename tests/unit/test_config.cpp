@@ -69,8 +69,8 @@ TEST(Config, SmoothnessHalfIsTheDefaultScheduleZeroIsNoneAndItIsMonotone) {
   apply_smoothness(p, 0);
   EXPECT_EQ(p.steps_a + p.steps_b + p.steps_free, 0);
   apply_smoothness(p, 1);
-  EXPECT_EQ(p.steps_a, 80);
-  EXPECT_EQ(p.steps_b, 40);
+  EXPECT_EQ(p.steps_a, 40);
+  EXPECT_EQ(p.steps_b, 30);
   EXPECT_EQ(p.steps_free, 6);
   Params previous;
   apply_smoothness(previous, 0);
@@ -110,7 +110,7 @@ TEST(Config, PrecedenceIsPresetThenControlsThenKeysWhateverTheOrder) {
   const Params p = params_from_json(json::parse(R"({"steps_b": 7, "voxel_size": 0.03, "smoothness": 1.0,
                                                     "detail": 2, "preset": "preview"})"));
   EXPECT_EQ(p.steps_b, 7);         // explicit key over smoothness
-  EXPECT_EQ(p.steps_a, 80);        // smoothness over the preset
+  EXPECT_EQ(p.steps_a, 40);        // smoothness over the preset
   EXPECT_DOUBLE_EQ(p.detail, 2);   // detail over the preset
   EXPECT_DOUBLE_EQ(p.voxel_size, 0.03);  // explicit key over detail
 
@@ -158,7 +158,8 @@ TEST(Config, WrongTypesAndRangesNameTheKeyAndTheExpectation) {
       {R"({"extract": 3})", {"extract", "a string"}},
       {R"({"extract": "spheres"})", {"extract", "spheres"}},
       {R"({"transfer": [1, 2]})", {"transfer", "array of attribute names"}},
-      {R"({"relax": 1.5})", {"relax", "(0, 1]"}},
+      {R"({"relax": 2.5})", {"relax", "(0, 2)"}},
+      {R"({"relax": 1.5, "solver": "jacobi"})", {"relax", "Jacobi"}},
       {R"({"r-outer": -1})", {"r-outer", "r_outer"}},
       {R"({"smoothness": true})", {"smoothness", "a number"}},
       {R"({"detail": 0})", {"detail"}},

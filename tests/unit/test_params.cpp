@@ -36,8 +36,13 @@ TEST(Params, RefusesOutOfRangeValuesNamingTheParameter) {
   p.r_outer = 0.2;
   expect_refused(p, "r_inner");
   p = Params{};
-  p.relax = 1.5;
+  p.relax = 2;
   expect_refused(p, "relax");
+  p = Params{};
+  p.relax = 1.5;  // over-relaxed Gauss-Seidel: accepted
+  EXPECT_NO_THROW(p.validate());
+  p.solver = SmoothingSolver::jacobi;  // Jacobi diverges above 1
+  expect_refused(p, "Jacobi");
   p = Params{};
   p.steps_b = -3;
   expect_refused(p, "steps_b");
@@ -58,6 +63,10 @@ TEST(Params, DerivedValuesFollowTheSpacing) {
   in.spacing = 0.2;
   const Params p = resolve_params(test::lattice_block(4, 4, 4, 0.2f), in);
   EXPECT_DOUBLE_EQ(p.voxel_size, 0.1);
+  EXPECT_DOUBLE_EQ(p.relax, 1.3);  // over-relaxed Gauss-Seidel A sweeps
+  Params jacobi = in;
+  jacobi.solver = SmoothingSolver::jacobi;
+  EXPECT_DOUBLE_EQ(resolve_params(test::lattice_block(4, 4, 4, 0.2f), jacobi).relax, 1.0);
   EXPECT_DOUBLE_EQ(p.r_outer, 0.2);
   EXPECT_DOUBLE_EQ(p.r_inner, 0.1);
   EXPECT_DOUBLE_EQ(p.transfer_radius, 0.4);

@@ -7,6 +7,8 @@
 #include "extract/extract.hpp"
 #include "field/distance_field.hpp"
 #include "grid/hash_grid.hpp"
+#include "smooth/adjacency.hpp"
+#include "smooth/operators.hpp"
 #include "scenes.hpp"
 #include "smooth/smooth.hpp"
 #include "transfer/normals.hpp"
@@ -61,8 +63,43 @@ void BM_ExtractTiles(benchmark::State& state) {
   state.SetLabel("items = field samples");
 }
 
+// The smoothing set-up's parts on the extracted mesh: the adjacency (rows and triangle lists),
+// the greedy colourings (distance 1: the A classes, 2: the B classes) and the cotangent
+// operator W, D, diag(B).
+void BM_Adjacency(benchmark::State& state) {
+  const Fixture& f = Fixture::get();
+  for (auto _ : state) {
+    Adjacency adj = build_adjacency(f.mesh.vertices.size(), f.mesh.triangles);
+    benchmark::DoNotOptimize(adj.neighbors.data());
+  }
+  state.SetItemsProcessed(state.iterations() * int64_t(f.mesh.vertices.size()));
+  state.SetLabel("items = vertices");
+}
+
+void BM_GreedyColours(benchmark::State& state) {
+  const Fixture& f = Fixture::get();
+  const Adjacency adj = build_adjacency(f.mesh.vertices.size(), f.mesh.triangles);
+  for (auto _ : state) {
+    std::vector<uint16_t> c = greedy_colors(adj, int(state.range(0)));
+    benchmark::DoNotOptimize(c.data());
+  }
+  state.SetItemsProcessed(state.iterations() * int64_t(f.mesh.vertices.size()));
+  state.SetLabel("items = vertices");
+}
+
+void BM_CotanOperator(benchmark::State& state) {
+  const Fixture& f = Fixture::get();
+  const Adjacency adj = build_adjacency(f.mesh.vertices.size(), f.mesh.triangles);
+  for (auto _ : state) {
+    CotanOperator op = build_cotan_operator(f.mesh.vertices, f.mesh.triangles, adj);
+    benchmark::DoNotOptimize(op.w.data());
+  }
+  state.SetItemsProcessed(state.iterations() * int64_t(f.mesh.vertices.size()));
+  state.SetLabel("items = vertices");
+}
+
 // A few sweeps of each phase; items = vertex-iterations, so the rate extrapolates to the
-// default 40 + 20 + 3 schedule (the B run includes building the bilaplacian once).
+// default 20 + 15 + 3 schedule (the B run includes building the bilaplacian once).
 void BM_Smooth(benchmark::State& state) {
   const Fixture& f = Fixture::get();
   SmoothOptions o;
@@ -95,6 +132,9 @@ void BM_VertexNormals(benchmark::State& state) {
 BENCHMARK(BM_HashGrid)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_DistanceField)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_ExtractTiles)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_Adjacency)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_GreedyColours)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_CotanOperator)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Smooth)->Args({5, 0})->Args({0, 5})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_VertexNormals)->Unit(benchmark::kMillisecond)->UseRealTime();
 

@@ -375,8 +375,7 @@ SmoothReport smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const 
   Operator op;
   const MeshRows rows{off, nb, adj.tri_offsets.data(), adj.tri_ids.data(), mesh.triangles.data()};
   auto build = [&] {
-    op.w.resize(adj.neighbors.size());
-    op.w.zero();
+    op.w.resize(adj.neighbors.size());  // cotan_row writes its row whole
     op.diag.resize(nv);
     op.area.resize(nv);
     op.b_diag.resize(nv);

@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
+#include <numeric>
 
 #include "common/huge_pages.hpp"
 #include "common/parallel_index.hpp"
@@ -19,14 +21,17 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
   // pages (huge_pages.hpp).
   // The triangle lists: counted and filled in parallel through atomic cursors, then each list
   // sorted — ascending, as a serial fill in triangle order would leave it.
-  assign_huge(adj.tri_offsets, nv + 1, 0u);
+  resize_huge(adj.tri_offsets, nv + 1);
+  parallel_for_index(nv + 1, 65536, [&](std::size_t i) { adj.tri_offsets[i] = 0; });
   parallel_for_index(triangles.size(), 16384, [&](std::size_t f) {
     for (uint32_t v : triangles[f]) std::atomic_ref<uint32_t>(adj.tri_offsets[v + 1]).fetch_add(1, std::memory_order_relaxed);
   });
   for (std::size_t i = 0; i < nv; ++i) adj.tri_offsets[i + 1] += adj.tri_offsets[i];
   resize_huge(adj.tri_ids, adj.tri_offsets[nv]);
   {
-    std::vector<uint32_t> fill(adj.tri_offsets.begin(), adj.tri_offsets.end() - 1);
+    UninitVector<uint32_t> fill;
+    resize_huge(fill, nv);
+    parallel_for_index(nv, 65536, [&](std::size_t i) { fill[i] = adj.tri_offsets[i]; });
     parallel_for_index(triangles.size(), 16384, [&](std::size_t f) {
       for (uint32_t v : triangles[f])
         adj.tri_ids[std::atomic_ref<uint32_t>(fill[v]).fetch_add(1, std::memory_order_relaxed)] = uint32_t(f);
@@ -62,7 +67,7 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
     });
   };
   // Writes the rows at `offsets`; false if a row's length is not what they say.
-  auto write_rows = [&](const std::vector<uint32_t>& offsets) {
+  auto write_rows = [&](const UninitVector<uint32_t>& offsets) {
     std::atomic<bool> fits{true};
     for_each_row([&](std::size_t i, const uint32_t* row, uint32_t n) {
       if (n == offsets[i + 1] - offsets[i])
@@ -73,7 +78,7 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
     return fits.load();
   };
   resize_huge(adj.offsets, nv + 1);
-  std::copy(adj.tri_offsets.begin(), adj.tri_offsets.end(), adj.offsets.begin());
+  parallel_for_index(nv + 1, 65536, [&](std::size_t i) { adj.offsets[i] = adj.tri_offsets[i]; });
   resize_huge(adj.neighbors, adj.offsets[nv]);
   if (write_rows(adj.offsets)) return adj;
 
@@ -81,33 +86,37 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
   for_each_row([&](std::size_t i, const uint32_t*, uint32_t n) { counts[i + 1] = n; });
   adj.offsets[0] = 0;
   for (std::size_t i = 0; i < nv; ++i) adj.offsets[i + 1] = adj.offsets[i] + counts[i + 1];
-  std::vector<uint32_t>().swap(adj.neighbors);
+  UninitVector<uint32_t>().swap(adj.neighbors);
   resize_huge(adj.neighbors, adj.offsets[nv]);
   write_rows(adj.offsets);
   return adj;
 }
 
-Adjacency renumber_adjacency(const Adjacency& adj, std::span<const uint32_t> order) {
+Adjacency renumber_adjacency(Adjacency&& adj, std::vector<uint32_t> order) {
   const std::size_t nv = adj.vertex_count();
-  std::vector<uint32_t> rank(nv);
+  UninitVector<uint32_t> rank;
+  resize_huge(rank, nv);
   parallel_for_index(nv, 4096, [&](std::size_t n) { rank[order[n]] = uint32_t(n); });
-  // Rows of old vertex order[n], in new order; the neighbour entries relabelled, in place.
-  auto permute_rows = [&](const std::vector<uint32_t>& offsets, const std::vector<uint32_t>& entries,
-                          std::vector<uint32_t>& new_offsets, std::vector<uint32_t>& new_entries, bool relabel) {
-    resize_huge(new_offsets, nv + 1);
-    new_offsets[0] = 0;
-    for (std::size_t n = 0; n < nv; ++n)
-      new_offsets[n + 1] = new_offsets[n] + (offsets[order[n] + 1] - offsets[order[n]]);
-    resize_huge(new_entries, entries.size());
-    parallel_for_index(nv, 4096, [&](std::size_t n) {
-      uint32_t* out = new_entries.data() + new_offsets[n];
-      const uint32_t b = offsets[order[n]], e = offsets[order[n] + 1];
-      for (uint32_t k = b; k < e; ++k) out[k - b] = relabel ? rank[entries[k]] : entries[k];
-    });
-  };
   Adjacency out;
-  permute_rows(adj.offsets, adj.neighbors, out.offsets, out.neighbors, true);
-  if (!adj.tri_offsets.empty()) permute_rows(adj.tri_offsets, adj.tri_ids, out.tri_offsets, out.tri_ids, false);
+  // Rows of old vertex order[n], in new order, their entries relabelled. The row lengths in
+  // parallel (the array's first touch), then their running sum.
+  resize_huge(out.offsets, nv + 1);
+  out.offsets[0] = 0;
+  parallel_for_index(nv, 65536, [&](std::size_t n) { out.offsets[n + 1] = adj.offsets[order[n] + 1] - adj.offsets[order[n]]; });
+  std::inclusive_scan(out.offsets.begin(), out.offsets.end(), out.offsets.begin());
+  resize_huge(out.neighbors, adj.neighbors.size());
+  parallel_for_index(nv, 4096, [&](std::size_t n) {
+    uint32_t* row = out.neighbors.data() + out.offsets[n];
+    const uint32_t b = adj.offsets[order[n]], e = adj.offsets[order[n] + 1];
+    for (uint32_t k = b; k < e; ++k) row[k - b] = rank[adj.neighbors[k]];
+  });
+  if (!adj.tri_offsets.empty()) {
+    out.tri_offsets = std::move(adj.tri_offsets);
+    out.tri_ids = std::move(adj.tri_ids);
+    // Composed with an earlier renumbering's, if any.
+    if (!adj.tri_row.empty()) parallel_for_index(nv, 65536, [&](std::size_t n) { order[n] = adj.tri_row[order[n]]; });
+    out.tri_row = std::move(order);
+  }
   return out;
 }
 
@@ -115,25 +124,47 @@ Coloring color_vertices(const Adjacency& adj, int distance) { return group_by_co
 
 std::vector<uint16_t> greedy_colors(const Adjacency& adj, int distance) {
   const std::size_t nv = adj.vertex_count();
-  std::vector<uint16_t> color(nv, 0xFFFF);
-  std::vector<uint32_t> mark;  // mark[c] == i + 1: colour c is taken for vertex i
-  uint16_t ncolors = 0;
+  const uint32_t* offsets = adj.offsets.data();
+  const uint32_t* neighbors = adj.neighbors.data();
+  std::vector<uint16_t> color(nv);
+  // Vertex i takes the smallest colour of no vertex within `distance` coloured before it (the
+  // lower-numbered ones). The first 64 colours are tracked in a register bit set (a distance-2
+  // ring has some forty entries; a marks array and a branch per entry took half as long again on
+  // splash 1M); only a vertex that finds all 64 taken counts again over every colour.
+  std::vector<uint32_t> mark;  // the slow path: mark[c] == i + 1 when colour c is taken for i
   for (uint32_t i = 0; i < nv; ++i) {
-    auto take = [&](uint32_t j) {
-      const uint16_t c = color[j];
-      if (c != 0xFFFF) mark[c] = i + 1;
+    uint64_t taken = 0;
+    // Branch-free: whether k < i is a coin toss to the branch predictor (color is zero-initialised,
+    // so the read is defined for every k).
+    auto take = [&](uint32_t k) {
+      const uint32_t c = color[k];
+      taken |= (uint64_t(k < i) & uint64_t(c < 64)) << (c & 63);
     };
-    mark.resize(std::size_t(ncolors) + 1, 0);
-    for (uint32_t j : adj.row(i)) {
+    for (uint32_t e = offsets[i]; e < offsets[i + 1]; ++e) {
+      const uint32_t j = neighbors[e];
       take(j);
       if (distance >= 2)
-        for (uint32_t k : adj.row(j))
-          if (k != i) take(k);
+        for (uint32_t f = offsets[j]; f < offsets[j + 1]; ++f) take(neighbors[f]);
     }
-    uint16_t c = 0;
-    while (c < ncolors && mark[c] == i + 1) ++c;
+    if (taken != ~uint64_t(0)) {
+      color[i] = uint16_t(std::countr_one(taken));
+      continue;
+    }
+    auto take_any = [&](uint32_t k) {
+      if (k < i) {
+        if (mark.size() <= color[k]) mark.resize(std::size_t(color[k]) + 1, 0);
+        mark[color[k]] = i + 1;
+      }
+    };
+    for (uint32_t e = offsets[i]; e < offsets[i + 1]; ++e) {
+      const uint32_t j = neighbors[e];
+      take_any(j);
+      if (distance >= 2)
+        for (uint32_t f = offsets[j]; f < offsets[j + 1]; ++f) take_any(neighbors[f]);
+    }
+    uint16_t c = 64;
+    while (c < mark.size() && mark[c] == i + 1) ++c;
     color[i] = c;
-    if (c == ncolors) ++ncolors;
   }
   return color;
 }

@@ -6,15 +6,20 @@
 #include <span>
 #include <vector>
 
+#include "common/huge_pages.hpp"
 #include "meniscus/mesh.hpp"
 
 namespace meniscus {
 
 struct Adjacency {
-  std::vector<uint32_t> offsets;      ///< #V+1: neighbours of i are neighbors[offsets[i] .. offsets[i+1])
-  std::vector<uint32_t> neighbors;    ///< ascending within each row (renumber_adjacency: see there)
-  std::vector<uint32_t> tri_offsets;  ///< #V+1: incident triangles of i are tri_ids[tri_offsets[i] ..)
-  std::vector<uint32_t> tri_ids;
+  // Filled in parallel, hence UninitVector (no serial zeroing first).
+  UninitVector<uint32_t> offsets;      ///< #V+1: neighbours of i are neighbors[offsets[i] .. offsets[i+1])
+  UninitVector<uint32_t> neighbors;    ///< ascending within each row (renumber_adjacency: see there)
+  UninitVector<uint32_t> tri_offsets;  ///< #V+1: incident triangles of i are tri_ids[tri_offsets[i] ..)
+  UninitVector<uint32_t> tri_ids;
+  /// Empty, or the list of vertex i is list tri_row[i] (renumber_adjacency keeps the lists of the
+  /// original numbering instead of permuting them: tri_row = the permutation).
+  std::vector<uint32_t> tri_row;
 
   std::size_t vertex_count() const { return offsets.empty() ? 0 : offsets.size() - 1; }
   std::span<const uint32_t> row(uint32_t i) const {
@@ -28,9 +33,12 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
 /// The adjacency of the same mesh with its vertices renumbered: new vertex n is old vertex
 /// order[n] (a permutation). Row n holds the relabelled entries of old row order[n] *in their old
 /// order*, so that a sum over a row adds the same values in the same order as before the
-/// renumbering (bit-identical results); triangle ids are unchanged. Much cheaper than
-/// build_adjacency of the relabelled triangles, which it equals up to the order within rows.
-Adjacency renumber_adjacency(const Adjacency& adjacency, std::span<const uint32_t> order);
+/// renumbering (bit-identical results). The triangle lists (ids unchanged) are taken over as they
+/// are, with tri_row = order (composed with the adjacency's own tri_row, if any): permuting them
+/// would write a third of a gigabyte on splash 1M for the one pass that reads them
+/// (build_cotan_operator). Much cheaper than build_adjacency of the relabelled triangles, which it
+/// equals up to the order within rows.
+Adjacency renumber_adjacency(Adjacency&& adjacency, std::vector<uint32_t> order);
 
 /// Vertices grouped into colour classes such that no two vertices of a class are within
 /// `distance` (1 or 2) edges of each other: vertices[offsets[c] .. offsets[c+1]) have colour c.

@@ -66,7 +66,7 @@ void NeighbourCache::refresh(const ShellConstraint& c, uint32_t i, Vec3f y) {
   const float radius = c.r_outer + margin_;
   c.particles->for_each_within(y, radius, [&](uint32_t id, float d2) { nearest.offer(d2, id); });
   CachedParticleList& e = entries_[i];
-  e.anchor = y;
+  e.set_anchor(y);
   e.count = nearest.store(kCapacity, slots(i));
   // Complete within the radius, or only up to (strictly below) the first particle left out.
   const float left_out2 = nearest.first_left_out(kCapacity, -1.0f);
@@ -83,7 +83,7 @@ HashGrid::Nearest NeighbourCache::scan(const ShellConstraint& c, uint32_t i, Vec
     const Vec3f p = points[ids[k]];
     // Sorted by distance to the anchor, and |p − y| ≥ |p − anchor| − moved: once the anchor
     // distance exceeds best + moved (with a rounding allowance), no later entry is nearer.
-    const float from_anchor2 = length2(p - e.anchor);
+    const float from_anchor2 = length2(p - e.anchor());
     const float bound = (best_dist + moved) * (1.0f + 1e-5f);
     if (from_anchor2 > bound * bound) break;
     const float d2 = length2(p - y);
@@ -106,7 +106,7 @@ Vec3f NeighbourCache::project_moved(const ShellConstraint& c, uint32_t i, Vec3f 
   CachedParticleList& e = entries_[i];
   float last_dist2 = -1;
   const Vec3f out = project_with(c, x, [&](Vec3f y) {
-    float moved = length(y - e.anchor);
+    float moved = length(y - e.anchor());
     HashGrid::Nearest n;
     if (moved < margin_) n = scan(c, i, y, moved);
     if (n.index == kNotFound) {
@@ -154,7 +154,7 @@ void EllipsoidCache::refresh(const EllipsoidConstraint& c, uint32_t i, Vec3f y) 
     if (m <= radius) nearest.offer(m, id);
   });
   CachedParticleList& e = entries_[i];
-  e.anchor = y;
+  e.set_anchor(y);
   e.count = nearest.store(kCapacity, slots(i));
   // (1 − 1e-5: the metric distances are evaluated in float at the anchor and at y.)
   e.reach = nearest.first_left_out(kCapacity, radius) * (1.0f - 1e-5f);
@@ -178,7 +178,7 @@ MetricNearest EllipsoidCache::scan(const EllipsoidConstraint& c, uint32_t i, Vec
 }
 
 MetricNearest EllipsoidCache::nearest(const EllipsoidConstraint& c, uint32_t i, Vec3f y) {
-  const float moved = length(y - entries_[i].anchor);
+  const float moved = length(y - entries_[i].anchor());
   MetricNearest n;
   if (lipschitz_ * moved < margin_) n = scan(c, i, y, moved);
   if (n.index == kNotFound) {

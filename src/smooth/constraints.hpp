@@ -27,10 +27,17 @@ Vec3f project_vertex(const ShellConstraint& c, Vec3f x);
 
 /// The per-vertex record of NeighbourCache and EllipsoidCache (the list's ids, and the slack the
 /// sweeps test first, are stored apart).
+/// Trivial (no initialisers): the caches' arrays are first written by the parallel refreshes.
 struct CachedParticleList {
-  Vec3f anchor;     ///< where the list was made
-  float reach = 0;  ///< every particle within this distance (or metric distance) is listed
-  uint32_t count = 0;
+  float anchor_xyz[3];  ///< where the list was made
+  float reach;          ///< every particle within this distance (or metric distance) is listed
+  uint32_t count;
+  Vec3f anchor() const { return {anchor_xyz[0], anchor_xyz[1], anchor_xyz[2]}; }
+  void set_anchor(Vec3f p) {
+    anchor_xyz[0] = p.x;
+    anchor_xyz[1] = p.y;
+    anchor_xyz[2] = p.z;
+  }
 };
 
 /// What NeighbourCache and EllipsoidCache share: per vertex a CachedParticleList, K particle slots
@@ -55,14 +62,19 @@ class CachedParticleLists {
   }
 
  protected:
-  /// One list per vertex, each made by refresh(i, x[i]) (in parallel), every slack unknown.
+  /// One list per vertex, each made by refresh(i, x[i]) (in parallel), every slack unknown. The
+  /// arrays are written first there, in parallel (no serial zeroing; a list's unused slots stay
+  /// unwritten and are never read).
   template <class Refresh>
   void make_lists(std::span<const Vec3f> x, Refresh&& refresh) {
-    assign_huge(entries_, x.size(), CachedParticleList{});
+    resize_huge(entries_, x.size());
     resize_huge(ids_, x.size() * std::size_t(K));
-    assign_huge(slack_, x.size(), -1.0f);
+    resize_huge(slack_, x.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 1024), [&](const auto& r) {
-      for (std::size_t i = r.begin(); i != r.end(); ++i) refresh(uint32_t(i), x[i]);
+      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+        slack_[i] = -1.0f;
+        refresh(uint32_t(i), x[i]);
+      }
     });
   }
   /// Whether vertex i, having moved `moved` (in the constraint's distance) since its last
@@ -82,9 +94,9 @@ class CachedParticleLists {
   uint32_t* slots(uint32_t i) { return ids_.data() + std::size_t(i) * K; }
   const uint32_t* slots(uint32_t i) const { return ids_.data() + std::size_t(i) * K; }
 
-  std::vector<CachedParticleList> entries_;
-  std::vector<uint32_t> ids_;  ///< K slots per vertex, nearest to the anchor first
-  std::vector<float> slack_;
+  UninitVector<CachedParticleList> entries_;
+  UninitVector<uint32_t> ids_;  ///< K slots per vertex, nearest to the anchor first
+  UninitVector<float> slack_;
 };
 
 /// Per-vertex lists of the particles near each vertex, so that the projection in the smoothing

@@ -39,14 +39,16 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
                                    const Adjacency& adj, std::span<const uint32_t> rank) {
   const std::size_t nv = adj.vertex_count();
   CotanOperator op;
-  assign_huge(op.w, adj.neighbors.size(), 0.0f);
-  assign_huge(op.diag, nv, 0.0f);
-  assign_huge(op.area, nv, 0.0f);
-  assign_huge(op.b_diag, nv, 0.0f);
+  // Every entry is written below, first by the parallel passes (no serial zeroing).
+  resize_huge(op.w, adj.neighbors.size());
+  resize_huge(op.diag, nv);
+  resize_huge(op.area, nv);
+  resize_huge(op.b_diag, nv);
   // Each vertex assembles its own row from its incident triangles: no two threads write the
   // same entry, so no atomics are needed.
   const MeshRows rows{adj.offsets.data(), adj.neighbors.data(), adj.tri_offsets.data(), adj.tri_ids.data(),
-                      triangles.empty() ? nullptr : triangles.data()->data()};
+                      triangles.empty() ? nullptr : triangles.data()->data(),
+                      adj.tri_row.empty() ? nullptr : adj.tri_row.data()};
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const auto& r) {
     for (std::size_t iv = r.begin(); iv != r.end(); ++iv)
       cotan_row(rows, x.data(), uint32_t(iv), op.w.data(), &op.diag[iv], &op.area[iv]);
@@ -57,7 +59,9 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
   double mean_area = sum_in_tree(nv, rank, [&](std::size_t k) { return double(op.area[k]); });
   mean_area /= double(std::max<std::size_t>(nv, 1));
   const float area_floor = float(std::max(mean_area * 1e-6, 1e-30));
-  for (float& a : op.area) a = std::max(a, area_floor);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 16384), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) op.area[i] = std::max(op.area[i], area_floor);
+  });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const auto& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i)
       op.b_diag[i] = bilaplacian_diagonal_row(adj.offsets.data(), adj.neighbors.data(), op.w.data(), op.diag.data(),

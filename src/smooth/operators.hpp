@@ -6,6 +6,7 @@
 #include <span>
 #include <vector>
 
+#include "common/huge_pages.hpp"
 #include "smooth/adjacency.hpp"
 #include "smooth/operators_impl.hpp"
 
@@ -15,7 +16,7 @@ namespace meniscus {
 /// (W_ij = cot α_ij + cot β_ij, clamped), diag[i] = W_ii = −Σ_j W_ij, area[i] = D_ii (a third
 /// of the clamped areas of the incident triangles), b_diag[i] = B_ii = Σ_k W_ik² / D_k.
 struct CotanOperator {
-  std::vector<float> w, diag, area, b_diag;
+  UninitVector<float> w, diag, area, b_diag;  ///< written whole by build_cotan_operator's parallel passes
 };
 
 /// Builds W, D and diag(B) for the current positions (parallel over vertices, no atomics).

@@ -14,13 +14,15 @@
 namespace meniscus {
 
 /// CSR rows of a mesh: neighbours of i at neighbors[offsets[i] .. offsets[i+1]) (distinct), incident
-/// triangles at tri_ids[tri_offsets[i] .. tri_offsets[i+1]) (ascending); triangles as index triples.
+/// triangles at tri_ids[tri_offsets[r] .. tri_offsets[r+1]) (ascending) with r = tri_row[i], or i
+/// when tri_row is null; triangles as index triples.
 struct MeshRows {
   const uint32_t* offsets;
   const uint32_t* neighbors;
   const uint32_t* tri_offsets;
   const uint32_t* tri_ids;
-  const uint32_t* triangles;  ///< 3 per triangle
+  const uint32_t* triangles;          ///< 3 per triangle
+  const uint32_t* tri_row = nullptr;  ///< renumbered vertices: their lists' old index
 };
 
 /// Mean of i's neighbours (x_i itself for an isolated vertex).
@@ -52,13 +54,15 @@ MENISCUS_HD inline Vec3f bilaplacian_row_from_wx(const uint32_t* offsets, const 
   return out;
 }
 
-/// Row i of W (w[offsets[i] ..), which must be zero on entry) from i's incident triangles; returns
-/// W_ii = −Σ_j W_ij in *diag and the third of the clamped incident area in *area.
+/// Row i of W (w[offsets[i] ..), overwritten) from i's incident triangles; returns W_ii = −Σ_j W_ij
+/// in *diag and the third of the clamped incident area in *area.
 MENISCUS_HD inline void cotan_row(const MeshRows& m, const Vec3f* x, uint32_t i, float* w, float* diag, float* area) {
   const uint32_t row_begin = m.offsets[i], row_end = m.offsets[i + 1];
   float* wrow = w + row_begin;
+  for (uint32_t e = 0; e < row_end - row_begin; ++e) wrow[e] = 0.0f;
   float a = 0;
-  for (uint32_t k = m.tri_offsets[i]; k < m.tri_offsets[i + 1]; ++k) {
+  const uint32_t r = m.tri_row != nullptr ? m.tri_row[i] : i;
+  for (uint32_t k = m.tri_offsets[r]; k < m.tri_offsets[r + 1]; ++k) {
     const uint32_t* t = m.triangles + 3 * std::size_t(m.tri_ids[k]);
     const int c = t[0] == i ? 0 : (t[1] == i ? 1 : 2);
     const uint32_t j = t[(c + 1) % 3], l = t[(c + 2) % 3];

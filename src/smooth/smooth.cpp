@@ -100,7 +100,7 @@ double energy_of(const Adjacency& adj, const CotanOperator& op, std::span<const 
 /// the original numbering (`rank`). On splash 300k the sweeps took about a tenth less
 /// (bench/RESULTS.md).
 struct SweepLayout {
-  std::vector<uint32_t> order;  ///< new index → original index (empty: not renumbered; freed for the sweeps)
+  std::vector<uint32_t> order;  ///< new index → original index (empty: not renumbered; handed to the adjacency as tri_row)
   std::vector<uint32_t> rank;   ///< original index → new index (empty: not renumbered)
   ClassRuns a, b;               ///< the A (distance 1) and B (distance 2) classes, new numbering
 };
@@ -116,18 +116,21 @@ SweepLayout sweep_layout(const Adjacency& adj, bool renumber) {
   const std::size_t nb = nv == 0 ? 1 : std::size_t(*std::max_element(cb.begin(), cb.end())) + 1;
   SweepLayout layout;
   if (renumber) {
-    // Each chunk sorted by (B colour, A colour, original index), in parallel and in memory
-    // independent of the number of colours.
+    // Each chunk sorted by (B colour, A colour, original index), in parallel: a counting sort on
+    // the colour pair, which keeps the index order within a pair (a comparison sort of the
+    // indices, reading both colours at every comparison, took 0.7 s of the set-up on splash 1M).
     resize_huge(layout.order, nv);
     resize_huge(layout.rank, nv);
     tbb::parallel_for(std::size_t(0), (nv + kSweepChunk - 1) / kSweepChunk, [&](std::size_t q) {
-      const auto b = layout.order.begin() + std::ptrdiff_t(q * kSweepChunk);
-      const auto e = layout.order.begin() + std::ptrdiff_t(std::min(nv, (q + 1) * kSweepChunk));
-      std::iota(b, e, uint32_t(q * kSweepChunk));
-      std::sort(b, e, [&](uint32_t i, uint32_t j) {
-        return cb[i] != cb[j] ? cb[i] < cb[j] : (ca[i] != ca[j] ? ca[i] < ca[j] : i < j);
-      });
-      for (auto it = b; it != e; ++it) layout.rank[*it] = uint32_t(it - layout.order.begin());
+      const uint32_t b = uint32_t(q * kSweepChunk), e = uint32_t(std::min(nv, (q + 1) * kSweepChunk));
+      std::vector<uint32_t> start(na * nb + 1, 0);
+      for (uint32_t i = b; i < e; ++i) ++start[std::size_t(cb[i]) * na + ca[i] + 1];
+      for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+      for (uint32_t i = b; i < e; ++i) {
+        const uint32_t n = b + start[std::size_t(cb[i]) * na + ca[i]]++;
+        layout.order[n] = i;
+        layout.rank[i] = n;
+      }
     });
   }
   auto original = [&](uint32_t n) { return renumber ? layout.order[n] : n; };
@@ -271,11 +274,12 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
     CotanOperator op = build_cotan_operator(x, triangles, adj, rank);
     const auto b_start = std::chrono::steady_clock::now();
     if (o.rebuild_b == 0) {
-      // The triangle lists only serve to build the operator: free them for the sweeps (28 bytes a
-      // vertex, an eighth of the smoothing's memory).
+      // The triangle lists only serve to build the operator: free them for the sweeps (32 bytes a
+      // vertex with tri_row, an eighth of the smoothing's memory).
       // (swap with empty vectors: `= {}` would keep the capacity).
-      std::vector<uint32_t>().swap(adj.tri_offsets);
-      std::vector<uint32_t>().swap(adj.tri_ids);
+      UninitVector<uint32_t>().swap(adj.tri_offsets);
+      UninitVector<uint32_t>().swap(adj.tri_ids);
+      std::vector<uint32_t>().swap(adj.tri_row);
     }
     float w = o.relax_b;
     double energy = energy_of(adj, op, x, scratch, rank);
@@ -360,14 +364,14 @@ SmoothReport smooth_cached(std::vector<Vec3f>& x, std::span<Triangle> triangles,
   Adjacency adj = build_adjacency(x.size(), triangles);
   if (gauss_seidel) layout = sweep_layout(adj, o.renumber);
   if (gauss_seidel && o.renumber) {
-    adj = renumber_adjacency(adj, layout.order);
-    renumbered.emplace(x, triangles, layout.rank);
     if (o.vertex_relax.size() == x.size()) {
       relax.resize(x.size());
       for (std::size_t n = 0; n < x.size(); ++n) relax[n] = o.vertex_relax[layout.order[n]];
       options.vertex_relax = relax;
     }
-    std::vector<uint32_t>().swap(layout.order);  // the sweeps need only rank
+    // The order becomes the adjacency's tri_row (the sweeps need only rank).
+    adj = renumber_adjacency(std::move(adj), std::move(layout.order));
+    renumbered.emplace(x, triangles, layout.rank);
   }
   // Vertices move little per sweep: each keeps a list of its nearby particles, refreshed only
   // when the vertex has moved too far from where the list was made.

@@ -94,7 +94,8 @@ TEST(Adjacency, RowsAndTriangleListsMatchABruteForceReferenceOnClosedAndOpenMesh
 }
 
 // renumber_adjacency permutes the rows and relabels their entries in place: the same rows (as
-// sets) as the adjacency built from the relabelled triangles, each in its old order.
+// sets) as the adjacency built from the relabelled triangles, each in its old order; the triangle
+// lists stay where they were, found through tri_row (composed over two renumberings).
 TEST(Adjacency, RenumberedRowsAreTheRelabelledMeshsRowsInTheirOldOrder) {
   const TriangleMesh m = perturbed_sphere(3, 0.01f, 3);
   const std::size_t nv = m.vertices.size();
@@ -108,7 +109,7 @@ TEST(Adjacency, RenumberedRowsAreTheRelabelledMeshsRowsInTheirOldOrder) {
   for (Triangle& t : relabelled)
     for (uint32_t& v : t) v = rank[v];
   const Adjacency expected = build_adjacency(nv, relabelled);
-  const Adjacency got = renumber_adjacency(adj, order);
+  const Adjacency got = renumber_adjacency(Adjacency(adj), order);
   ASSERT_EQ(got.vertex_count(), nv);
   for (uint32_t n = 0; n < nv; ++n) {
     std::vector<uint32_t> row(got.row(n).begin(), got.row(n).end());
@@ -117,11 +118,61 @@ TEST(Adjacency, RenumberedRowsAreTheRelabelledMeshsRowsInTheirOldOrder) {
     EXPECT_EQ(row, old_row) << "row " << n << " keeps its old order";
     std::sort(row.begin(), row.end());
     EXPECT_EQ(row, std::vector<uint32_t>(expected.row(n).begin(), expected.row(n).end())) << n;
-    EXPECT_TRUE(std::equal(got.tri_ids.begin() + got.tri_offsets[n], got.tri_ids.begin() + got.tri_offsets[n + 1],
+    ASSERT_EQ(got.tri_row.size(), nv);
+    const uint32_t r = got.tri_row[n];
+    EXPECT_EQ(r, order[n]);
+    EXPECT_TRUE(std::equal(got.tri_ids.begin() + got.tri_offsets[r], got.tri_ids.begin() + got.tri_offsets[r + 1],
                            expected.tri_ids.begin() + expected.tri_offsets[n],
                            expected.tri_ids.begin() + expected.tri_offsets[n + 1]))
         << "triangles of " << n;
   }
+  // Renumbered again (reversed): vertex n of the result is vertex order[nv - 1 - n] of the mesh.
+  std::vector<uint32_t> reverse(nv);
+  for (std::size_t n = 0; n < nv; ++n) reverse[n] = uint32_t(nv - 1 - n);
+  const Adjacency twice = renumber_adjacency(Adjacency(got), reverse);
+  for (uint32_t n = 0; n < nv; ++n) ASSERT_EQ(twice.tri_row[n], order[nv - 1 - n]) << n;
+}
+
+// greedy_colors (a register bit set for the first 64 colours, a marks array past them) against
+// the serial greedy written out plainly: the colourings must be the same, colour for colour (they
+// fix the Gauss-Seidel classes, the CUDA backend's too). The complete graph on 70 vertices takes
+// the path past 64 colours.
+TEST(Adjacency, GreedyColoursAreTheSerialGreedy) {
+  auto reference = [](const Adjacency& adj, int distance) {
+    const std::size_t nv = adj.vertex_count();
+    std::vector<int> color(nv, -1);
+    for (uint32_t i = 0; i < nv; ++i) {
+      std::set<int> taken;
+      for (uint32_t j : adj.row(i)) {
+        taken.insert(color[j]);
+        if (distance == 2)
+          for (uint32_t k : adj.row(j))
+            if (k != i) taken.insert(color[k]);
+      }
+      int c = 0;
+      while (taken.count(c)) ++c;
+      color[i] = c;
+    }
+    return color;
+  };
+  const TriangleMesh m = perturbed_sphere(3, 0.01f, 4);
+  std::vector<Adjacency> graphs{build_adjacency(m.vertices.size(), m.triangles)};
+  Adjacency complete;  // K70: every vertex adjacent to every other
+  complete.offsets.push_back(0);
+  for (uint32_t i = 0; i < 70; ++i) {
+    for (uint32_t j = 0; j < 70; ++j)
+      if (j != i) complete.neighbors.push_back(j);
+    complete.offsets.push_back(uint32_t(complete.neighbors.size()));
+  }
+  graphs.push_back(complete);
+  for (const Adjacency& adj : graphs)
+    for (int distance : {1, 2}) {
+      const std::vector<uint16_t> got = greedy_colors(adj, distance);
+      const std::vector<int> expected = reference(adj, distance);
+      ASSERT_EQ(got.size(), expected.size());
+      for (std::size_t i = 0; i < got.size(); ++i) ASSERT_EQ(int(got[i]), expected[i]) << "vertex " << i << " distance " << distance;
+    }
+  EXPECT_EQ(greedy_colors(complete, 1)[69], 69);
 }
 
 TEST(Adjacency, ColoringsAreIndependentSets) {

@@ -7,9 +7,12 @@
 
 namespace meniscus {
 
+/// The sweeps as the smoothing functions take them. The initialisers serve the unit tests that call
+/// those functions directly: the pipeline fills every field from the resolved Params
+/// (smooth_schedule), whose ω of the A sweeps is 1.3 with Gauss-Seidel (resolve_params), not 1.
 struct SmoothSchedule {
   int steps_a = 20, steps_b = 15, steps_free = 3;
-  float relax_a = 1.0f;   ///< ω of the A sweeps
+  float relax_a = 1.0f;   ///< ω of the A sweeps (1: plain sweeps; see above)
   float relax_b = 1.0f;   ///< initial ω of the B sweeps; halved whenever a sweep raises the energy
   SmoothingSolver solver = SmoothingSolver::gauss_seidel;
   int rebuild_b = 0;      ///< rebuild W and D every k B sweeps; 0: once, from the shrunk mesh

@@ -7,9 +7,9 @@
 #include "extract/extract.hpp"
 #include "field/distance_field.hpp"
 #include "grid/hash_grid.hpp"
+#include "scenes.hpp"
 #include "smooth/adjacency.hpp"
 #include "smooth/operators.hpp"
-#include "scenes.hpp"
 #include "smooth/smooth.hpp"
 #include "transfer/normals.hpp"
 

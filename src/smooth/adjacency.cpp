@@ -133,35 +133,32 @@ std::vector<uint16_t> greedy_colors(const Adjacency& adj, int distance) {
   // splash 1M); only a vertex that finds all 64 taken counts again over every colour.
   std::vector<uint32_t> mark;  // the slow path: mark[c] == i + 1 when colour c is taken for i
   for (uint32_t i = 0; i < nv; ++i) {
-    uint64_t taken = 0;
+    // Calls f(k) for every vertex k within `distance` of i (some more than once, i itself too).
+    auto for_each_in_reach = [&](auto&& f) {
+      for (uint32_t e = offsets[i]; e < offsets[i + 1]; ++e) {
+        const uint32_t j = neighbors[e];
+        f(j);
+        if (distance >= 2)
+          for (uint32_t g = offsets[j]; g < offsets[j + 1]; ++g) f(neighbors[g]);
+      }
+    };
     // Branch-free: whether k < i is a coin toss to the branch predictor (color is zero-initialised,
     // so the read is defined for every k).
-    auto take = [&](uint32_t k) {
+    uint64_t taken = 0;
+    for_each_in_reach([&](uint32_t k) {
       const uint32_t c = color[k];
       taken |= (uint64_t(k < i) & uint64_t(c < 64)) << (c & 63);
-    };
-    for (uint32_t e = offsets[i]; e < offsets[i + 1]; ++e) {
-      const uint32_t j = neighbors[e];
-      take(j);
-      if (distance >= 2)
-        for (uint32_t f = offsets[j]; f < offsets[j + 1]; ++f) take(neighbors[f]);
-    }
+    });
     if (taken != ~uint64_t(0)) {
       color[i] = uint16_t(std::countr_one(taken));
       continue;
     }
-    auto take_any = [&](uint32_t k) {
+    for_each_in_reach([&](uint32_t k) {
       if (k < i) {
         if (mark.size() <= color[k]) mark.resize(std::size_t(color[k]) + 1, 0);
         mark[color[k]] = i + 1;
       }
-    };
-    for (uint32_t e = offsets[i]; e < offsets[i + 1]; ++e) {
-      const uint32_t j = neighbors[e];
-      take_any(j);
-      if (distance >= 2)
-        for (uint32_t f = offsets[j]; f < offsets[j + 1]; ++f) take_any(neighbors[f]);
-    }
+    });
     uint16_t c = 64;
     while (c < mark.size() && mark[c] == i + 1) ++c;
     color[i] = c;

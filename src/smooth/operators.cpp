@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "common/huge_pages.hpp"
+#include "common/parallel_index.hpp"
 #include "smooth/cotangent_impl.hpp"
 #include "smooth/operators_impl.hpp"
 
@@ -59,9 +60,7 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
   double mean_area = sum_in_tree(nv, rank, [&](std::size_t k) { return double(op.area[k]); });
   mean_area /= double(std::max<std::size_t>(nv, 1));
   const float area_floor = float(std::max(mean_area * 1e-6, 1e-30));
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 16384), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) op.area[i] = std::max(op.area[i], area_floor);
-  });
+  parallel_for_index(nv, 16384, [&](std::size_t i) { op.area[i] = std::max(op.area[i], area_floor); });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const auto& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i)
       op.b_diag[i] = bilaplacian_diagonal_row(adj.offsets.data(), adj.neighbors.data(), op.w.data(), op.diag.data(),

@@ -14,6 +14,9 @@
 // cannot set it, and it would apply to every array alike.
 #pragma once
 
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -60,6 +63,9 @@ using UninitVector = std::vector<T, DefaultInitAllocator<T>>;
 /// Arrays below this size keep ordinary pages (a huge page is 2 MiB; small arrays gain nothing).
 inline constexpr std::size_t kHugePageMinBytes = std::size_t(8) << 20;
 
+/// Arrays below this size fault in from one thread (a few pages; a task would cost more).
+inline constexpr std::size_t kPopulateMinBytes = std::size_t(1) << 20;
+
 /// Asks the kernel to back the whole 2 MiB pages inside [data, data + bytes) with huge pages.
 /// Only a hint: it fails quietly where THP is off or unsupported, and it changes no values. It
 /// pays only on memory not touched yet (call it between allocation and first write).
@@ -76,26 +82,80 @@ inline void advise_huge_pages(void* data, std::size_t bytes) {
 #endif
 }
 
-/// Storage for n elements of an empty vector, advised for huge pages before anything touches it
-/// (a vector that already holds storage keeps it).
-template <class T, class A>
-void reserve_huge(std::vector<T, A>& v, std::size_t n) {
-  if (v.capacity() != 0) return;
-  v.reserve(n);
-  advise_huge_pages(v.data(), n * sizeof(T));
+/// Faults in the pages of [data, data + bytes) from all threads, so the kernel zeroes them in
+/// parallel: one `madvise(MADV_POPULATE_WRITE)` (Linux 5.14) per 4 MiB chunk, a system call and
+/// not a write, so it may cover storage a vector has reserved but not yet constructed. A
+/// `resize` or `assign` that value-initialises a fresh array faults it in from the calling thread
+/// alone: on splash 1M without smoothing those serial faults — the vertex positions, the
+/// triangles, the weld's and radix sort's scratch, the field's values, the normals — took about
+/// 1 s of the main thread while the other core waited (bench/RESULTS.md). Where the call is not
+/// supported it does nothing and the pages fault in at their first write, as before.
+inline void populate_pages(void* data, std::size_t bytes) {
+#if defined(__linux__) && defined(MADV_POPULATE_WRITE)
+  constexpr std::uintptr_t kPage = 4096, kChunk = std::uintptr_t(4) << 20;
+  if (bytes < kPopulateMinBytes || data == nullptr) return;
+  const std::uintptr_t begin = reinterpret_cast<std::uintptr_t>(data) & ~(kPage - 1);
+  const std::uintptr_t end = (reinterpret_cast<std::uintptr_t>(data) + bytes + kPage - 1) & ~(kPage - 1);
+  const std::size_t chunks = (end - begin + kChunk - 1) / kChunk;
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    const std::uintptr_t first = begin + c * kChunk, last = std::min(end, first + kChunk);
+    (void)madvise(reinterpret_cast<void*>(first), last - first, MADV_POPULATE_WRITE);
+  });
+#else
+  (void)data;
+  (void)bytes;
+#endif
 }
 
-/// v.resize(n) on huge pages where v was empty.
+/// Whether resize() writes the new elements (so that faulting them in ahead, in parallel, pays):
+/// every allocator but DefaultInitAllocator, and that one for types with a default initialiser.
+template <class T, class A>
+inline constexpr bool kResizeWrites =
+    !(std::is_same_v<A, DefaultInitAllocator<T>> && std::is_trivially_default_constructible_v<T>);
+
+/// Storage for n elements of an empty vector, advised for huge pages (when `huge`) before anything
+/// touches it and, when `populate`, faulted in from all threads (a vector that already holds
+/// storage keeps it).
+template <class T, class A>
+void reserve_fresh(std::vector<T, A>& v, std::size_t n, bool huge, bool populate) {
+  if (v.capacity() != 0) return;
+  v.reserve(n);
+  if (huge) advise_huge_pages(v.data(), n * sizeof(T));
+  if (populate) populate_pages(v.data(), n * sizeof(T));
+}
+
+/// Storage for n elements of an empty vector, advised for huge pages before anything touches it.
+template <class T, class A>
+void reserve_huge(std::vector<T, A>& v, std::size_t n) {
+  reserve_fresh(v, n, true, false);
+}
+
+/// v.resize(n) on huge pages where v was empty, faulted in from all threads when resize writes.
 template <class T, class A>
 void resize_huge(std::vector<T, A>& v, std::size_t n) {
-  reserve_huge(v, n);
+  reserve_fresh(v, n, true, kResizeWrites<T, A>);
   v.resize(n);
 }
 
-/// v.assign(n, value) on huge pages where v was empty.
+/// v.assign(n, value) on huge pages where v was empty, faulted in from all threads first.
 template <class T, class A>
 void assign_huge(std::vector<T, A>& v, std::size_t n, const T& value) {
-  reserve_huge(v, n);
+  reserve_fresh(v, n, true, true);
+  v.assign(n, value);
+}
+
+/// v.resize(n) on ordinary pages, faulted in from all threads where v was empty (for arrays
+/// written once in order, which huge pages slow: see the top of this file).
+template <class T, class A>
+void resize_populated(std::vector<T, A>& v, std::size_t n) {
+  reserve_fresh(v, n, false, kResizeWrites<T, A>);
+  v.resize(n);
+}
+
+/// v.assign(n, value) on ordinary pages, faulted in from all threads where v was empty.
+template <class T, class A>
+void assign_populated(std::vector<T, A>& v, std::size_t n, const T& value) {
+  reserve_fresh(v, n, false, true);
   v.assign(n, value);
 }
 

@@ -1,5 +1,6 @@
 // meniscus — block-parallel two-pass marching (Williams 2008; Edespong 2010 §4.3).
 #include "extract/block_marching.hpp"
+#include "common/huge_pages.hpp"
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
@@ -37,7 +38,8 @@ void check_key_range(const SparseField& field, Vec3i block) {
 std::vector<uint8_t> cell_inside_masks(const SparseField& field, float iso) {
   const int spc = field.lattice().samples_per_cell();
   const std::size_t cells = std::size_t(kBlockSamples / spc);
-  std::vector<uint8_t> masks(field.block_count() * cells);
+  std::vector<uint8_t> masks;
+  resize_populated(masks, field.block_count() * cells);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, field.block_count()),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t b = r.begin(); b != r.end(); ++b) {

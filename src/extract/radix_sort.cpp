@@ -1,5 +1,6 @@
 // meniscus — parallel LSD radix sort (count, exclusive scan, stable scatter per 11-bit digit).
 #include "extract/radix_sort.hpp"
+#include "common/huge_pages.hpp"
 
 #include <tbb/parallel_for.h>
 
@@ -17,7 +18,8 @@ void radix_sort(std::vector<uint64_t>& keys, int first_bit, int end_bit) {
   const std::size_t n = keys.size();
   if (n < 2) return;
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
-  std::vector<uint64_t> scratch(n);
+  std::vector<uint64_t> scratch;
+  resize_populated(scratch, n);
   std::vector<std::array<std::size_t, kBuckets>> offsets(chunks);
 
   for (int shift = first_bit; shift < end_bit; shift += kDigitBits) {

@@ -229,7 +229,8 @@ std::vector<uint64_t> number_runs(std::vector<uint64_t>& packed, int index_bits,
   for (std::size_t c = 0; c < chunks; ++c) first_vertex[c + 1] += first_vertex[c];
 
   check_vertex_count(first_vertex.back());
-  std::vector<uint64_t> vertex_keys(first_vertex.back());
+  std::vector<uint64_t> vertex_keys;
+  resize_populated(vertex_keys, first_vertex.back());
   const uint64_t index_mask = (uint64_t(1) << index_bits) - 1;
   tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
     std::size_t v = first_vertex[c];  // index of the next run head
@@ -260,7 +261,8 @@ void weld_packed(std::vector<uint64_t>& corner_keys, const DenseEdgeKeys& dense,
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) packed[i] = (dense.dense(packed[i]) << index_bits) | i;
   });
-  std::vector<Triangle> triangles(n / 3);
+  std::vector<Triangle> triangles;
+  resize_populated(triangles, n / 3);
   const std::vector<uint64_t> vertex_keys = number_runs(packed, index_bits, dense.bits, corner_data(triangles));
   mesh.triangles = std::move(triangles);
   compute_vertices(vertex_keys, dense, field, iso, mesh);
@@ -277,7 +279,7 @@ void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseFiel
   const std::size_t blocks = m.origins.size();
   const int span = m.block_cells + 4;  // base cells from origin − 2 to origin + n + 1
   const std::size_t slots = std::size_t(span) * std::size_t(span) * std::size_t(span) * 64;
-  mesh.triangles.resize(m.corner_count() / 3);
+  resize_populated(mesh.triangles, m.corner_count() / 3);
   uint32_t* entry_of = corner_data(mesh.triangles);  // per corner: its block-local, then global, entry
 
   struct Table {
@@ -322,7 +324,8 @@ void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseFiel
 
   const std::size_t entries = entry_offsets[blocks];
   const int index_bits = index_bits_for(entries);
-  std::vector<uint64_t> packed(entries);
+  std::vector<uint64_t> packed;
+  resize_populated(packed, entries);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
       const std::size_t first = 3 * m.triangle_offsets[b], base = entry_offsets[b];
@@ -333,7 +336,8 @@ void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseFiel
   });
   m.pages.clear();  // the corner keys: every entry is in `packed` now
   m.block_keys.clear();
-  std::vector<uint32_t> vertex_of(entries);
+  std::vector<uint32_t> vertex_of;
+  resize_populated(vertex_of, entries);
   const std::vector<uint64_t> vertex_keys = number_runs(packed, index_bits, dense.bits, vertex_of.data());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, 3 * mesh.triangles.size()),
                     [&](const tbb::blocked_range<std::size_t>& r) {

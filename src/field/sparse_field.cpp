@@ -1,10 +1,11 @@
 #include "field/sparse_field.hpp"
+#include "common/huge_pages.hpp"
 
 namespace meniscus {
 
 SparseField::SparseField(SampleLattice lattice, std::vector<uint64_t> block_keys, float background)
     : lattice_(lattice), block_keys_(std::move(block_keys)), background_(background) {
-  values_.assign(block_keys_.size() * kBlockSamples, background);
+  assign_populated(values_, block_keys_.size() * kBlockSamples, background);
   index_.build(block_keys_);
 }
 

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "common/huge_pages.hpp"
 #include "meniscus/mesh.hpp"
 
 namespace meniscus {
@@ -80,7 +81,9 @@ void compact_in_place(std::vector<T>& values, std::size_t per, const std::vector
 template <class Keep>
 std::size_t keep_triangles(TriangleMesh& mesh, Keep&& keep) {
   const std::size_t nt = mesh.triangles.size(), nv = mesh.vertices.size();
-  std::vector<uint8_t> kept(nt, 0), used(nv, 0);
+  std::vector<uint8_t> kept, used;
+  assign_populated(kept, nt, uint8_t(0));
+  assign_populated(used, nv, uint8_t(0));
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nt, 4096), [&](const auto& r) {
     for (std::size_t t = r.begin(); t != r.end(); ++t)
       if (keep(mesh.triangles[t])) {
@@ -95,7 +98,8 @@ std::size_t keep_triangles(TriangleMesh& mesh, Keep&& keep) {
   std::vector<uint8_t>().swap(kept);
 
   detail::chunk_offsets(used, offsets);
-  std::vector<uint32_t> remap(nv, ~0u);
+  std::vector<uint32_t> remap;
+  assign_populated(remap, nv, ~0u);
   detail::for_each_set(used, offsets, [&](std::size_t v, std::size_t k) { remap[v] = uint32_t(k); });
   detail::compact_in_place(mesh.vertices, 1, used, offsets);
   detail::compact_in_place(mesh.normals, 1, used, offsets);

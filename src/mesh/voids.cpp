@@ -128,7 +128,8 @@ MeshComponents mesh_components(const TriangleMesh& mesh) {
 /// Removes the triangles of the components whose root is in `roots`, then the vertices
 /// no triangle uses (order otherwise preserved; normals and attributes follow if present).
 void drop_components(TriangleMesh& mesh, const std::vector<uint32_t>& root, const std::vector<uint32_t>& roots) {
-  std::vector<uint8_t> drop(mesh.vertices.size(), 0);
+  std::vector<uint8_t> drop;
+  assign_populated(drop, mesh.vertices.size(), uint8_t(0));
   for (uint32_t r : roots) drop[r] = 1;
   keep_triangles(mesh, [&](const Triangle& t) { return !drop[root[t[0]]]; });
 }

@@ -8,7 +8,10 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <memory>
+#include <span>
 #include <stdexcept>
+#include <vector>
 
 #include "meniscus/errors.hpp"
 
@@ -32,6 +35,47 @@ void check_key_range(const SparseField& field, Vec3i block) {
           block.x, block.y, block.z, first, last, "xyz"[a], kEdgeKeyMaxCoord));
   }
 }
+
+/// Merges one block's corners on the same edge, through a table indexed by the edge's base cell
+/// relative to the block and its type (cache-resident, no sort, no hash): the weld then sorts only
+/// the blocks' distinct edges — about a fifth of the corners — and never reads a corner's key.
+class BlockWeld {
+ public:
+  BlockWeld() = default;
+  explicit BlockWeld(int block_cells)
+      : span_(block_cells + 4), entry_(std::size_t(span_) * std::size_t(span_) * std::size_t(span_) * 64, kNotFound) {}
+
+  /// Writes the distinct keys of `keys` to `edges` in first-use order and each key's index among
+  /// them to `corner_edges`; returns how many there are. `origin`: the block's first cell.
+  uint32_t weld(Vec3i origin, std::span<const uint64_t> keys, uint64_t* edges, uint32_t* corner_edges) {
+    const Vec3i base = origin - Vec3i{2, 2, 2};  // base cells run from origin − 2 to origin + n + 1
+    uint32_t count = 0;
+    for (std::size_t c = 0; c < keys.size(); ++c) {
+      const uint64_t key = keys[c];
+      const Vec3i l = edge_key_cell(key) - base;
+      if (l.x < 0 || l.y < 0 || l.z < 0 || l.x >= span_ || l.y >= span_ || l.z >= span_)
+        throw std::logic_error("march_blocks: an edge lies more than 2 cells outside the block that marched it");
+      const std::size_t slot = ((std::size_t(l.z) * std::size_t(span_) + std::size_t(l.y)) * std::size_t(span_) +
+                                std::size_t(l.x)) * 64 + std::size_t(edge_key_type(key));
+      uint32_t e = entry_[slot];
+      if (e == kNotFound) {
+        e = count++;
+        entry_[slot] = e;
+        touched_.push_back(uint32_t(slot));
+        edges[e] = key;
+      }
+      corner_edges[c] = e;
+    }
+    for (const uint32_t slot : touched_) entry_[slot] = kNotFound;
+    touched_.clear();
+    return count;
+  }
+
+ private:
+  int span_ = 0;
+  std::vector<uint32_t> entry_;    // per slot: the edge's index in the block, kNotFound when unused
+  std::vector<uint32_t> touched_;  // the slots to reset after the block
+};
 
 }  // namespace
 
@@ -150,50 +194,78 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
   out.origins.resize(blocks.size());
   for (std::size_t b = 0; b < blocks.size(); ++b) out.origins[b] = {blocks[b].x * n, blocks[b].y * n, blocks[b].z * n};
 
-  // One pass: each thread marches its blocks into its own pages, each block contiguous within a
-  // page (a page is started when the worst case of a block no longer fits). The block order —
-  // the mesh's triangle order — comes from the offsets, not from where the keys landed, so the
-  // result does not depend on the threads.
+  // One pass: each thread marches a block into its scratch, welds the block's corners there (see
+  // BlockWeld) and appends the block's distinct edges and corner indices to its own pages, each
+  // block contiguous within a page (a page is started when the worst case of a block no longer
+  // fits). The block order — the mesh's triangle order — comes from the offsets, not from where
+  // the records landed, so the result does not depend on the threads.
   const std::size_t block_max = 3 * std::size_t(max_triangles_per_cell) * std::size_t(n) * std::size_t(n) * std::size_t(n);
   const std::size_t page_size = std::max<std::size_t>(std::size_t(1) << 20, 8 * block_max);
   struct Writer {
-    std::vector<std::unique_ptr<uint64_t[]>> pages;
-    std::size_t used = 0;
+    std::vector<std::unique_ptr<uint64_t[]>> edge_pages;
+    std::vector<std::unique_ptr<uint32_t[]>> corner_pages;
+    std::size_t edges_used = 0, corners_used = 0;
+    std::vector<uint64_t> keys;  // the block's corner keys as its kernel wrote them
+    BlockWeld weld;
   };
-  tbb::enumerable_thread_specific<Writer> writers;
-  out.block_keys.assign(blocks.size(), nullptr);
-  std::vector<uint64_t> offsets(blocks.size() + 1, 0);
+  tbb::enumerable_thread_specific<Writer> writers([&] {
+    Writer w;
+    w.keys.resize(block_max);
+    w.weld = BlockWeld(n);
+    return w;
+  });
+  out.block_edges.assign(blocks.size(), nullptr);
+  out.block_corners.assign(blocks.size(), nullptr);
+  std::vector<uint64_t> triangle_offsets(blocks.size() + 1, 0), edge_offsets(blocks.size() + 1, 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size()), [&](const tbb::blocked_range<std::size_t>& r) {
     PaddedMasks masks;  // one per task, on the stack: no allocation in the loop
     Writer& w = writers.local();
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
       if (!gather_inside_masks(field, cell_masks, blocks[b], masks)) continue;
-      if (w.pages.empty() || w.used + block_max > page_size) {
-        w.pages.push_back(std::make_unique_for_overwrite<uint64_t[]>(page_size));
-        w.used = 0;
-      }
-      uint64_t* keys = w.pages.back().get() + w.used;
-      const uint32_t triangles = kernel(masks, keys);
+      const uint32_t triangles = kernel(masks, w.keys.data());
       if (triangles > max_triangles_per_cell * uint32_t(n * n * n))
         throw std::logic_error("march_blocks: a block wrote more triangles than its cells can have");
       if (triangles == 0) continue;
-      out.block_keys[b] = keys;
-      offsets[b + 1] = triangles;
-      w.used += 3 * std::size_t(triangles);
+      const std::size_t corners = 3 * std::size_t(triangles);
+      // A block has at most as many distinct edges as corners.
+      if (w.edge_pages.empty() || w.edges_used + corners > page_size) {
+        w.edge_pages.push_back(std::make_unique_for_overwrite<uint64_t[]>(page_size));
+        w.edges_used = 0;
+      }
+      if (w.corner_pages.empty() || w.corners_used + corners > page_size) {
+        w.corner_pages.push_back(std::make_unique_for_overwrite<uint32_t[]>(page_size));
+        w.corners_used = 0;
+      }
+      uint64_t* edges = w.edge_pages.back().get() + w.edges_used;
+      uint32_t* corner_edges = w.corner_pages.back().get() + w.corners_used;
+      const uint32_t count = w.weld.weld(masks.origin, std::span(w.keys.data(), corners), edges, corner_edges);
+      out.block_edges[b] = edges;
+      out.block_corners[b] = corner_edges;
+      triangle_offsets[b + 1] = triangles;
+      edge_offsets[b + 1] = count;
+      w.edges_used += count;
+      w.corners_used += corners;
     }
   });
-  for (std::size_t b = 0; b < blocks.size(); ++b) offsets[b + 1] += offsets[b];
-  out.triangle_offsets = std::move(offsets);
-  for (Writer& w : writers)
-    for (auto& page : w.pages) out.pages.push_back(std::move(page));
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    triangle_offsets[b + 1] += triangle_offsets[b];
+    edge_offsets[b + 1] += edge_offsets[b];
+  }
+  out.triangle_offsets = std::move(triangle_offsets);
+  out.edge_offsets = std::move(edge_offsets);
+  for (Writer& w : writers) {
+    for (auto& page : w.edge_pages) out.edge_pages.push_back(std::move(page));
+    for (auto& page : w.corner_pages) out.corner_pages.push_back(std::move(page));
+  }
   return out;
 }
 
 std::vector<uint64_t> MarchedCorners::flatten() const {
   std::vector<uint64_t> keys(corner_count());
-  tbb::parallel_for(std::size_t(0), block_keys.size(), [&](std::size_t b) {
-    const std::span<uint64_t> source = block(b);
-    std::copy(source.begin(), source.end(), keys.begin() + std::ptrdiff_t(3 * triangle_offsets[b]));
+  tbb::parallel_for(std::size_t(0), block_edges.size(), [&](std::size_t b) {
+    const std::span<const uint64_t> e = edges(b);
+    uint64_t* out = keys.data() + 3 * triangle_offsets[b];
+    for (const uint32_t c : corners(b)) *out++ = e[c];
   });
   return keys;
 }

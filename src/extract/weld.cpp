@@ -77,7 +77,7 @@ struct DenseEdgeKeys {
           return keys.subspan(i * kChunk, std::min(kChunk, keys.size() - i * kChunk));
         }) {}
   /// From the blocks alone, without reading the corners: every edge a block marched has its base
-  /// cell within 2 cells of the block (weld_blocks checks it), so the blocks with triangles,
+  /// cell within 2 cells of the block (march_blocks checks it), so the blocks with triangles,
   /// widened by 2, bound every key.
   explicit DenseEdgeKeys(const MarchedCorners& m) : DenseEdgeKeys(marched_box(m)) {}
   static Box marched_box(const MarchedCorners& m) {
@@ -268,74 +268,32 @@ void weld_packed(std::vector<uint64_t>& corner_keys, const DenseEdgeKeys& dense,
   compute_vertices(vertex_keys, dense, field, iso, mesh);
 }
 
-/// With the block structure of the marching (the usual case): each block first merges its own
-/// corners on the same edge, through a table indexed by the edge's base cell relative to the block
-/// and its type (cache-resident, no sort); only the blocks' distinct edges — about a quarter of
-/// the corners — go through the global sort, and every corner then reads its vertex through its
-/// block's entry. Same vertices in the same (key) order as weld_packed, with a quarter of the
-/// sorting and without the sort's scratch copy of all corners.
+/// With the block structure of the marching (the usual case): each block has already merged its
+/// own corners on the same edge (MarchedCorners), so only the blocks' distinct edges — about a
+/// fifth of the corners — go through the global sort, and every corner then reads its vertex
+/// through its block's entry. Same vertices in the same (key) order as weld_packed, with a fifth of
+/// the sorting and without the sort's scratch copy of all corners.
 void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseField& field, float iso,
                  TriangleMesh& mesh) {
-  const std::size_t blocks = m.origins.size();
-  const int span = m.block_cells + 4;  // base cells from origin − 2 to origin + n + 1
-  const std::size_t slots = std::size_t(span) * std::size_t(span) * std::size_t(span) * 64;
-  resize_populated(mesh.triangles, m.corner_count() / 3);
-  uint32_t* entry_of = corner_data(mesh.triangles);  // per corner: its block-local, then global, entry
-
-  struct Table {
-    std::vector<uint32_t> entry;    // per slot: the block-local entry, kNotFound when unused
-    std::vector<uint32_t> touched;  // the slots to reset after the block
-  };
-  tbb::enumerable_thread_specific<Table> tables([&] {
-    Table t;
-    t.entry.assign(slots, kNotFound);
-    return t;
-  });
-  std::vector<std::size_t> entry_offsets(blocks + 1, 0);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks), [&](const tbb::blocked_range<std::size_t>& r) {
-    Table& t = tables.local();
-    for (std::size_t b = r.begin(); b != r.end(); ++b) {
-      const std::size_t first = 3 * m.triangle_offsets[b], last = 3 * m.triangle_offsets[b + 1];
-      uint64_t* keys = m.block_keys[b];  // corner c's key is keys[c − first]
-      const Vec3i base = m.origins[b] - Vec3i{2, 2, 2};
-      uint32_t count = 0;
-      for (std::size_t c = first; c < last; ++c) {
-        const uint64_t key = keys[c - first];
-        const Vec3i l = edge_key_cell(key) - base;
-        if (l.x < 0 || l.y < 0 || l.z < 0 || l.x >= span || l.y >= span || l.z >= span)
-          throw std::logic_error("weld: an edge lies more than 2 cells outside the block that marched it");
-        const std::size_t slot = ((std::size_t(l.z) * span + std::size_t(l.y)) * span + std::size_t(l.x)) * 64 +
-                                 std::size_t(edge_key_type(key));
-        uint32_t e = t.entry[slot];
-        if (e == kNotFound) {
-          e = count++;
-          t.entry[slot] = e;
-          t.touched.push_back(uint32_t(slot));
-          keys[e] = key;  // compacted in place: e ≤ c − first, already read
-        }
-        entry_of[c] = e;
-      }
-      for (uint32_t slot : t.touched) t.entry[slot] = kNotFound;
-      t.touched.clear();
-      entry_offsets[b + 1] = count;
-    }
-  });
-  for (std::size_t b = 0; b < blocks; ++b) entry_offsets[b + 1] += entry_offsets[b];
-
-  const std::size_t entries = entry_offsets[blocks];
+  const std::size_t blocks = m.origins.size(), entries = m.edge_count();
   const int index_bits = index_bits_for(entries);
   std::vector<uint64_t> packed;
   resize_populated(packed, entries);
+  resize_populated(mesh.triangles, m.corner_count() / 3);
+  uint32_t* entry_of = corner_data(mesh.triangles);  // per corner: its global entry, then its vertex
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
-      const std::size_t first = 3 * m.triangle_offsets[b], base = entry_offsets[b];
-      for (std::size_t e = base; e < entry_offsets[b + 1]; ++e)
-        packed[e] = (dense.dense(m.block_keys[b][e - base]) << index_bits) | e;
-      for (std::size_t c = first; c < 3 * m.triangle_offsets[b + 1]; ++c) entry_of[c] += uint32_t(base);
+      const std::size_t base = m.edge_offsets[b];
+      const std::span<const uint64_t> edges = m.edges(b);
+      for (std::size_t e = 0; e < edges.size(); ++e) packed[base + e] = (dense.dense(edges[e]) << index_bits) | (base + e);
+      uint32_t* out = entry_of + 3 * m.triangle_offsets[b];
+      for (const uint32_t c : m.corners(b)) *out++ = c + uint32_t(base);
     }
   });
-  m.pages.clear();  // the corner keys: every entry is in `packed` now
-  m.block_keys.clear();
+  m.edge_pages.clear();  // every entry is in `packed` now, every corner in `entry_of`
+  m.corner_pages.clear();
+  m.block_edges.clear();
+  m.block_corners.clear();
   std::vector<uint32_t> vertex_of;
   resize_populated(vertex_of, entries);
   const std::vector<uint64_t> vertex_keys = number_runs(packed, index_bits, dense.bits, vertex_of.data());
@@ -409,13 +367,14 @@ ExtractResult weld_edge_keys(std::vector<uint64_t> corner_keys, const SparseFiel
 
 ExtractResult weld_edge_keys(MarchedCorners marched, const SparseField& field, float iso) {
   if (marched.triangle_offsets.size() != marched.origins.size() + 1 ||
-      marched.block_keys.size() != marched.origins.size())
+      marched.edge_offsets.size() != marched.origins.size() + 1 ||
+      marched.block_edges.size() != marched.origins.size() || marched.block_corners.size() != marched.origins.size())
     throw std::logic_error("weld_edge_keys: the block offsets do not match the blocks");
   ExtractResult result;
   const DenseEdgeKeys dense(marched);
-  // The entries are at most the corners: if their indices fit next to the key, the block weld
-  // applies; otherwise (fields spread over most of the key range) the search fallback.
-  if (dense.bits + index_bits_for(marched.corner_count()) <= 64)
+  // If the entries' indices fit next to the key, the block weld applies; otherwise (fields spread
+  // over most of the key range) the search fallback.
+  if (dense.bits + index_bits_for(marched.edge_count()) <= 64)
     weld_blocks(marched, dense, field, iso, result.mesh);
   else
     weld_searched(marched.flatten(), dense, field, iso, result.mesh);

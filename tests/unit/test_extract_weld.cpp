@@ -4,11 +4,14 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <set>
 #include <vector>
 
+#include "extract/block_marching.hpp"
 #include "extract/edge_key.hpp"
 #include "extract/extract.hpp"
 #include "extract/marching.hpp"
+#include "extract/marching_impl.hpp"
 #include "extract/radix_sort.hpp"
 #include "extract/weld.hpp"
 #include "meniscus/quality.hpp"
@@ -116,7 +119,7 @@ TEST(ExtractWeld, FarApartComponentsWeldLikeSeparateOnes) {
 /// the blocks' distinct edges) into exactly the mesh of the plain weld that sorts every corner:
 /// a noisy field over 3 × 3 × 3 blocks with inside samples on the allocated boundary (so ghost
 /// blocks are marched too), for all three extractors.
-TEST(ExtractWeld, BlockWeldGivesTheSameMeshAsTheGlobalSort) {
+TEST(ExtractWeld, BlockWeldKeepsEveryCornerAndGivesTheSameMeshAsTheGlobalSort) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> noise(-0.4f, 0.4f);
   for (Extractor e : {Extractor::tiles, Extractor::cubes, Extractor::tetrahedra}) {
@@ -146,6 +149,47 @@ TEST(ExtractWeld, BlockWeldGivesTheSameMeshAsTheGlobalSort) {
                                                      : march_tetrahedra(field, 0);
     ASSERT_GT(marched.origins.size(), field.block_count()) << "ghost blocks should be marched";
     ASSERT_GT(marched.corner_count(), 3000u);
+    // Each block's own weld: distinct edges, every one used, and each corner's key that of the
+    // cell kernels run here on the same padded masks (cell order z, y, x, then the kernel's).
+    const std::vector<uint8_t> cell_masks = cell_inside_masks(field, 0);
+    const std::vector<Vec3i> marched_blocks = blocks_to_march(field, cell_masks, e == Extractor::tiles);
+    ASSERT_EQ(marched_blocks.size(), marched.origins.size());
+    const std::vector<uint64_t> flat = marched.flatten();
+    std::size_t checked = 0;
+    for (std::size_t b = 0; b < marched_blocks.size(); ++b) {
+      PaddedMasks masks;
+      std::vector<uint64_t> expected;
+      if (gather_inside_masks(field, cell_masks, marched_blocks[b], masks)) {
+        const int sy = masks.padded, sz = masks.padded * masks.padded;
+        const TileVertexLookup lookup = make_tile_vertex_lookup(sy, sz);
+        for (int z = 0; z < n; ++z)
+          for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x) {
+              uint64_t out[3 * 2 * kA15TetCount];
+              const uint64_t cell_key = edge_key(masks.origin + Vec3i{x, y, z}, 0);
+              const uint8_t* m = masks.at(x, y, z);
+              const uint32_t t = e == Extractor::tiles   ? march_tile_cell(m, lookup, cell_key, out)
+                                 : e == Extractor::cubes ? march_cube_cell(m, sy, sz, cell_key, out)
+                                                         : march_kuhn_cell(m, sy, sz, cell_key, out);
+              expected.insert(expected.end(), out, out + 3 * t);
+            }
+      }
+      const std::size_t first = 3 * marched.triangle_offsets[b], corners = 3 * marched.triangle_offsets[b + 1] - first;
+      ASSERT_EQ(corners, expected.size()) << to_string(e) << " block " << b;
+      EXPECT_TRUE(std::equal(expected.begin(), expected.end(), flat.begin() + std::ptrdiff_t(first)))
+          << to_string(e) << " block " << b;
+      if (corners == 0) continue;
+      const std::span<const uint64_t> edges = marched.edges(b);
+      EXPECT_EQ(std::set<uint64_t>(edges.begin(), edges.end()).size(), edges.size()) << "repeated edge, block " << b;
+      std::vector<bool> used(edges.size(), false);
+      for (const uint32_t c : marched.corners(b)) {
+        ASSERT_LT(c, edges.size());
+        used[c] = true;
+      }
+      EXPECT_TRUE(std::all_of(used.begin(), used.end(), [](bool u) { return u; })) << "unused edge, block " << b;
+      ++checked;
+    }
+    EXPECT_GT(checked, field.block_count() / 2) << to_string(e);
     const ExtractResult plain = weld_edge_keys(marched.flatten(), field, 0);
     const ExtractResult blocks = weld_edge_keys(std::move(marched), field, 0);
     EXPECT_EQ(blocks.mesh.vertices, plain.mesh.vertices) << to_string(e);

@@ -143,6 +143,7 @@ void print_table(const Scene& scene, const Params& p, const std::vector<Column>&
 int main(int argc, char** argv) {
   // As the CLI does; the same for both tools, which run in this process.
   meniscus::release_large_blocks_eagerly();
+  meniscus::reuse_freed_blocks_between_stages();
   CLI::App app{"meniscus vs OpenVDB (ParticlesToLevelSet + LevelSetFilter + volumeToMesh) on the same particles"};
   std::string scene_name = "block", file;
   std::size_t count = 100000, samples = 2000;

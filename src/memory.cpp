@@ -1,6 +1,10 @@
-// meniscus — the allocator setting of meniscus/memory.hpp.
+// meniscus — the allocator settings of meniscus/memory.hpp.
 #include "meniscus/memory.hpp"
 
+#include "memory_scope.hpp"
+
+#include <atomic>
+#include <climits>
 #include <cstdlib>  // defines __GLIBC__ on glibc
 
 #if defined(__GLIBC__)
@@ -9,6 +13,12 @@
 
 namespace meniscus {
 
+namespace {
+
+std::atomic<bool> g_reuse_between_stages{false};
+
+}  // namespace
+
 bool release_large_blocks_eagerly() {
 #if defined(__GLIBC__)
   // Setting M_MMAP_THRESHOLD also turns off glibc's dynamic raising of it.
@@ -16,6 +26,36 @@ bool release_large_blocks_eagerly() {
   return mallopt(M_MMAP_THRESHOLD, kThreshold) == 1;
 #else
   return false;
+#endif
+}
+
+bool reuse_freed_blocks_between_stages() {
+#if defined(__GLIBC__)
+  g_reuse_between_stages = true;
+  return true;
+#else
+  return false;
+#endif
+}
+
+HeapReuseScope::HeapReuseScope() {
+#if defined(__GLIBC__)
+  if (!g_reuse_between_stages) return;
+  // Every block from the heap, and no free at its top given back: freed blocks are reused.
+  active_ = used_ = mallopt(M_MMAP_MAX, 0) == 1 && mallopt(M_TRIM_THRESHOLD, INT_MAX) == 1;
+#endif
+}
+
+void HeapReuseScope::end() {
+#if defined(__GLIBC__)
+  if (!used_) return;
+  if (active_) {
+    constexpr int kGlibcDefaultMmapMax = 65536, kGlibcDefaultTrimThreshold = 128 * 1024;
+    mallopt(M_MMAP_MAX, kGlibcDefaultMmapMax);
+    mallopt(M_TRIM_THRESHOLD, kGlibcDefaultTrimThreshold);
+    active_ = false;
+  }
+  malloc_trim(0);  // the free pages anywhere in the heap, not only at its top
 #endif
 }
 

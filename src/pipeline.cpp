@@ -21,6 +21,7 @@
 #include "field/distance_field.hpp"
 #include "field/kernel_field.hpp"
 #include "grid/hash_grid.hpp"
+#include "memory_scope.hpp"
 #include "mesh/voids.hpp"
 #include "meniscus/backend.hpp"
 #include "meniscus/errors.hpp"
@@ -274,6 +275,7 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
                               std::size_t(params.threads > 0 ? params.threads : tbb::info::default_concurrency()));
   StageTimer timer(stats, progress);
+  HeapReuseScope reuse;  // up to the smoothing, where the CLI asks for it (meniscus/memory.hpp)
   Params p = timer.run("parameters", [&] { return resolve_params(particles, params); });
   result.params = p;
   stats.spacing_estimated = params.spacing == 0;
@@ -386,7 +388,11 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
     });
   // The extraction numbers vertices in edge-key (row-major) order; the sweeps run 2-4x faster
   // on a Z-ordered mesh, where a vertex's ring and particle list sit near it in memory.
-  if (p.steps_a + p.steps_b + p.steps_free > 0) timer.run("reorder", [&] { reorder_vertices_spatially(mesh); });
+  if (p.steps_a + p.steps_b + p.steps_free > 0) {
+    reuse.end();
+    timer.run("reorder", [&] { reorder_vertices_spatially(mesh); });
+    reuse.end();
+  }
 
   timer.run("smooth", [&] {
     SmoothOptions o;

@@ -674,6 +674,7 @@ int run_info() {
 
 int main(int argc, char** argv) {
   meniscus::release_large_blocks_eagerly();  // a lower peak: freed stage arrays leave the process
+  meniscus::reuse_freed_blocks_between_stages();  // except up to the smoothing, where they serve the next stage
   CLI::App app{"meniscus — smooth, watertight meshes from fluid particles (Williams' constrained smoothing)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string(meniscus::version()));

@@ -1,10 +1,12 @@
 // Tests of meniscus/memory.hpp: blocks of 1 MiB and more stay mapped (and are unmapped on free)
-// even after a larger block was freed, which by default would raise glibc's mmap threshold.
+// even after a larger block was freed, which by default would raise glibc's mmap threshold; and
+// between stages (HeapReuseScope) freed blocks are reused from the heap, then given back.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
 #include <cstring>
 
+#include "memory_scope.hpp"
 #include "meniscus/memory.hpp"
 
 #if defined(__GLIBC__)
@@ -41,6 +43,42 @@ TEST(Memory, LargeBlocksStayMappedAfterALargerOneWasFreed) {
   EXPECT_GE(mallinfo2().hblkhd, mapped_before + kBlock);
   std::free(block);
   EXPECT_EQ(mallinfo2().hblkhd, mapped_before);  // and unmapped again on free
+#endif
+}
+
+TEST(Memory, BetweenStagesFreedBlocksAreReusedAndThenGivenBack) {
+#if !defined(__GLIBC__) || defined(MENISCUS_TEST_SANITIZED)
+  GTEST_SKIP() << "glibc's own malloc only (a sanitizer replaces it)";
+#else
+  ASSERT_TRUE(release_large_blocks_eagerly());
+  constexpr std::size_t kBlock = std::size_t(64) << 20;
+  {
+    HeapReuseScope off;  // the policy is not on yet: a large block gets its own mapping
+    const std::size_t mapped_before = mallinfo2().hblkhd;
+    void* volatile block = std::malloc(kBlock);
+    ASSERT_NE(block, nullptr);
+    EXPECT_GE(mallinfo2().hblkhd, mapped_before + kBlock);
+    std::free(block);
+  }
+  ASSERT_TRUE(reuse_freed_blocks_between_stages());
+  HeapReuseScope scope;
+  const std::size_t mapped_before = mallinfo2().hblkhd;
+  void* volatile first = std::malloc(kBlock);
+  ASSERT_NE(first, nullptr);
+  std::memset(first, 1, kBlock);
+  EXPECT_EQ(mallinfo2().hblkhd, mapped_before) << "from the heap, not a mapping of its own";
+  void* const where = first;
+  std::free(first);
+  EXPECT_GE(mallinfo2().fordblks, kBlock) << "kept by the heap after free";
+  void* volatile second = std::malloc(kBlock);  // the next stage's array: the same, resident pages
+  EXPECT_EQ(second, where);
+  std::free(second);
+  scope.end();
+  EXPECT_LT(mallinfo2().fordblks, kBlock / 2) << "free heap pages given back at the end";
+  void* volatile after = std::malloc(kBlock);  // and large blocks are mapped again
+  ASSERT_NE(after, nullptr);
+  EXPECT_GE(mallinfo2().hblkhd, mapped_before + kBlock);
+  std::free(after);
 #endif
 }
 

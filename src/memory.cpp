@@ -42,7 +42,9 @@ HeapReuseScope::HeapReuseScope() {
 #if defined(__GLIBC__)
   if (!g_reuse_between_stages) return;
   // Every block from the heap, and no free at its top given back: freed blocks are reused.
-  active_ = used_ = mallopt(M_MMAP_MAX, 0) == 1 && mallopt(M_TRIM_THRESHOLD, INT_MAX) == 1;
+  const bool kept = mallopt(M_TRIM_THRESHOLD, INT_MAX) == 1;
+  const bool heap = mallopt(M_MMAP_MAX, 0) == 1;
+  active_ = used_ = kept || heap;  // end() restores both either way
 #endif
 }
 

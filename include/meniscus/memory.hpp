@@ -20,9 +20,10 @@ bool release_large_blocks_eagerly();
 /// and large blocks get their own mappings again, so the peak stays that of
 /// release_large_blocks_eagerly(): the smoothing's arrays are many and of many sizes, and a heap
 /// would fragment under them. Measured on splash 1M without smoothing (2 threads): total 2.9-3.6
-/// → 2.6 s, peak +1 %; splash 300k with it: total -3 to -8 %, peak +3 %. Process-wide (it
-/// changes malloc's settings while a run is in those stages); the CLI and the benchmarks turn it
-/// on at start-up. Returns false where it does not apply (not glibc).
+/// → 2.7 s, peak +1 %; the full pipeline's peak +1 %. Process-wide: it changes malloc's
+/// settings while a run is in those stages and then leaves glibc's default mmap count and trim
+/// threshold (its dynamic thresholds off, as release_large_blocks_eagerly() leaves them). The CLI
+/// and the benchmarks turn it on at start-up. Returns false where it does not apply (not glibc).
 bool reuse_freed_blocks_between_stages();
 
 }  // namespace meniscus

@@ -22,9 +22,9 @@ namespace meniscus {
 /// corner's edge among them, 3 per triangle (corner c's key is block_edges[b][block_corners[b][c]]):
 /// both in pages each thread filled as it marched (one pass, no count pass, no copy; the corners'
 /// keys themselves never leave the thread's cache, which the weld's first pass used to read back
-/// from 8 bytes a corner of pages). A block's
-/// edges have base cells within 2 cells of its cells [origins[b], origins[b] + block_cells) on
-/// each axis (a tetrahedron reaches one cell beyond its own, an edge key's base cell one more).
+/// from 8 bytes a corner of pages). A block's edges have base cells within 2 cells of its cells
+/// [origins[b], origins[b] + block_cells) on each axis (a tetrahedron reaches one cell beyond its
+/// own, an edge key's base cell one more).
 struct MarchedCorners {
   std::vector<std::unique_ptr<uint64_t[]>> edge_pages;
   std::vector<std::unique_ptr<uint32_t[]>> corner_pages;

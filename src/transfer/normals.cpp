@@ -14,7 +14,17 @@ std::vector<Vec3f> vertex_normals(std::span<const Vec3f> x, std::span<const Tria
   // come out in the same order every time.
   std::vector<Vec3f> n;
   assign_huge(n, x.size(), Vec3f{0, 0, 0});
-  for (const Triangle& t : triangles) {
+  // The corners of the triangle kAhead on are prefetched: the extraction's triangles come block
+  // by block while its vertices are in row order, so a block's corners are spread over a dozen
+  // rows of the arrays (splash 1M: 0.25-0.27 -> 0.16-0.18 s; 16 ahead 0.20 s, 32 ahead 0.17 s).
+  constexpr std::size_t kAhead = 64;
+  for (std::size_t f = 0; f < triangles.size(); ++f) {
+    if (f + kAhead < triangles.size())
+      for (const uint32_t v : triangles[f + kAhead]) {
+        __builtin_prefetch(&x[v]);
+        __builtin_prefetch(&n[v], 1);
+      }
+    const Triangle& t = triangles[f];
     const Vec3f c = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
     n[t[0]] += c;
     n[t[1]] += c;

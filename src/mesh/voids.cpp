@@ -96,11 +96,17 @@ MeshComponents mesh_components(const TriangleMesh& mesh) {
   // stably sorted by root and added up, so each sum takes its terms in triangle order and does
   // not depend on the thread count.
   constexpr std::size_t kChunk = std::size_t(1) << 16;
+  constexpr std::size_t kAhead = 64;  // as in vertex_normals: the corners of a triangle ahead
   const std::size_t chunks = (nt + kChunk - 1) / kChunk;
   std::vector<std::vector<Component>> runs(chunks);
   tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t k) {
     auto& out = runs[k];
     for (std::size_t i = k * kChunk, end = std::min(nt, i + kChunk); i < end; ++i) {
+      if (i + kAhead < end) {
+        const Triangle& ahead = mesh.triangles[i + kAhead];
+        for (const uint32_t v : ahead) __builtin_prefetch(&mesh.vertices[v]);
+        __builtin_prefetch(&c.root[ahead[0]]);
+      }
       const Triangle& t = mesh.triangles[i];
       const Vec3f a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], cc = mesh.vertices[t[2]];
       const double v = (double(a.x) * (double(b.y) * cc.z - double(b.z) * cc.y) -

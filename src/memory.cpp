@@ -44,19 +44,16 @@ HeapReuseScope::HeapReuseScope() {
   // Every block from the heap, and no free at its top given back: freed blocks are reused.
   const bool kept = mallopt(M_TRIM_THRESHOLD, INT_MAX) == 1;
   const bool heap = mallopt(M_MMAP_MAX, 0) == 1;
-  active_ = used_ = kept || heap;  // end() restores both either way
+  used_ = kept || heap;  // end() restores both either way
 #endif
 }
 
 void HeapReuseScope::end() {
 #if defined(__GLIBC__)
   if (!used_) return;
-  if (active_) {
-    constexpr int kGlibcDefaultMmapMax = 65536, kGlibcDefaultTrimThreshold = 128 * 1024;
-    mallopt(M_MMAP_MAX, kGlibcDefaultMmapMax);
-    mallopt(M_TRIM_THRESHOLD, kGlibcDefaultTrimThreshold);
-    active_ = false;
-  }
+  constexpr int kGlibcDefaultMmapMax = 65536, kGlibcDefaultTrimThreshold = 128 * 1024;
+  mallopt(M_MMAP_MAX, kGlibcDefaultMmapMax);  // setting the defaults again is harmless
+  mallopt(M_TRIM_THRESHOLD, kGlibcDefaultTrimThreshold);
   malloc_trim(0);  // the free pages anywhere in the heap, not only at its top
 #endif
 }

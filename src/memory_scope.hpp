@@ -16,8 +16,7 @@ class HeapReuseScope {
   void end();
 
  private:
-  bool active_ = false;
-  bool used_ = false;
+  bool used_ = false;  ///< the policy was on and this scope changed malloc's settings
 };
 
 }  // namespace meniscus

@@ -389,9 +389,9 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
   // The extraction numbers vertices in edge-key (row-major) order; the sweeps run 2-4x faster
   // on a Z-ordered mesh, where a vertex's ring and particle list sit near it in memory.
   if (p.steps_a + p.steps_b + p.steps_free > 0) {
-    reuse.end();
+    reuse.end();  // the reordered mesh, which lives through the smoothing, gets its own mappings
     timer.run("reorder", [&] { reorder_vertices_spatially(mesh); });
-    reuse.end();
+    reuse.end();  // and the heap gives back the old mesh the reorder freed
   }
 
   timer.run("smooth", [&] {

@@ -33,11 +33,11 @@ struct NearestK {
     }
     best[k] = {distance, id};
   }
-  /// Stores the first `capacity` ids at `slots` and returns how many.
-  uint32_t store(int capacity, uint32_t* slots) const {
+  /// Stores the first `capacity` ids at `slots`, followed by kNotFound when there are fewer.
+  void store(int capacity, uint32_t* slots) const {
     const int stored = std::min(count, capacity);
     for (int k = 0; k < stored; ++k) slots[k] = best[std::size_t(k)].id;
-    return uint32_t(stored);
+    if (stored < capacity) slots[stored] = kNotFound;
   }
   /// The distance of the first candidate a list of `capacity` leaves out, or `otherwise` (the
   /// search radius) when it leaves none out: the list holds every candidate strictly below it.
@@ -67,7 +67,7 @@ void NeighbourCache::refresh(const ShellConstraint& c, uint32_t i, Vec3f y) {
   c.particles->for_each_within(y, radius, [&](uint32_t id, float d2) { nearest.offer(d2, id); });
   CachedParticleList& e = entries_[i];
   e.set_anchor(y);
-  e.count = nearest.store(kCapacity, slots(i));
+  nearest.store(kCapacity, slots(i));
   // Complete within the radius, or only up to (strictly below) the first particle left out.
   const float left_out2 = nearest.first_left_out(kCapacity, -1.0f);
   e.reach = left_out2 >= 0 ? std::sqrt(left_out2) * (1.0f - 1e-6f) : radius;
@@ -79,7 +79,7 @@ HashGrid::Nearest NeighbourCache::scan(const ShellConstraint& c, uint32_t i, Vec
   const uint32_t* ids = slots(i);
   HashGrid::Nearest best;
   float best_dist = INFINITY;
-  for (uint32_t k = 0; k < e.count; ++k) {
+  for (int k = 0; k < kCapacity && ids[k] != kNotFound; ++k) {
     const Vec3f p = points[ids[k]];
     // Sorted by distance to the anchor, and |p − y| ≥ |p − anchor| − moved: once the anchor
     // distance exceeds best + moved (with a rounding allowance), no later entry is nearer.
@@ -155,7 +155,7 @@ void EllipsoidCache::refresh(const EllipsoidConstraint& c, uint32_t i, Vec3f y) 
   });
   CachedParticleList& e = entries_[i];
   e.set_anchor(y);
-  e.count = nearest.store(kCapacity, slots(i));
+  nearest.store(kCapacity, slots(i));
   // (1 − 1e-5: the metric distances are evaluated in float at the anchor and at y.)
   e.reach = nearest.first_left_out(kCapacity, radius) * (1.0f - 1e-5f);
 }
@@ -165,7 +165,7 @@ MetricNearest EllipsoidCache::scan(const EllipsoidConstraint& c, uint32_t i, Vec
   const CachedParticleList& e = entries_[i];
   const uint32_t* ids = slots(i);
   MetricNearest best;
-  for (uint32_t k = 0; k < e.count; ++k) {
+  for (int k = 0; k < kCapacity && ids[k] != kNotFound; ++k) {
     const uint32_t id = ids[k];
     const float m = metric_distance(c.ellipsoids[id].metric, y, points[id]);
     if (m < best.distance || (m == best.distance && id < best.index)) best = {id, m};

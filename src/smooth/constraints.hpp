@@ -26,12 +26,12 @@ struct ShellConstraint {
 Vec3f project_vertex(const ShellConstraint& c, Vec3f x);
 
 /// The per-vertex record of NeighbourCache and EllipsoidCache (the list's ids, and the slack the
-/// sweeps test first, are stored apart).
+/// sweeps test first, are stored apart; a list shorter than the capacity ends with kNotFound, so
+/// the record needs no count: 16 bytes a vertex).
 /// Trivial (no initialisers): the caches' arrays are first written by the parallel refreshes.
 struct CachedParticleList {
   float anchor_xyz[3];  ///< where the list was made
   float reach;          ///< every particle within this distance (or metric distance) is listed
-  uint32_t count;
   Vec3f anchor() const { return {anchor_xyz[0], anchor_xyz[1], anchor_xyz[2]}; }
   void set_anchor(Vec3f p) {
     anchor_xyz[0] = p.x;
@@ -39,6 +39,7 @@ struct CachedParticleList {
     anchor_xyz[2] = p.z;
   }
 };
+static_assert(sizeof(CachedParticleList) == 16);
 
 /// What NeighbourCache and EllipsoidCache share: per vertex a CachedParticleList, K particle slots
 /// and the slack of the skip test — how far, in the constraint's distance, the vertex may move

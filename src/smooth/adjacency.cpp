@@ -92,6 +92,47 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
   return adj;
 }
 
+bool adopt_corner_lists(Adjacency& adj, std::span<const Triangle> triangles, std::span<const uint32_t> rank) {
+  const std::size_t nv = adj.vertex_count();
+  if (adj.tri_offsets.empty()) return false;
+  std::atomic<bool> fits{true};
+  parallel_for_index(nv, 65536, [&](std::size_t i) {
+    if (adj.offsets[i + 1] - adj.offsets[i] > kMaxCornerRow) fits.store(false, std::memory_order_relaxed);
+  });
+  if (!fits.load()) return false;
+  auto list_of = [&](std::size_t i) { return adj.tri_row.empty() ? i : std::size_t(adj.tri_row[i]); };
+  resize_huge(adj.corner_offsets, nv + 1);
+  adj.corner_offsets[0] = 0;
+  parallel_for_index(nv, 65536, [&](std::size_t i) {
+    const std::size_t r = list_of(i);
+    adj.corner_offsets[i + 1] = adj.tri_offsets[r + 1] - adj.tri_offsets[r];
+  });
+  std::inclusive_scan(adj.corner_offsets.begin(), adj.corner_offsets.end(), adj.corner_offsets.begin());
+  resize_huge(adj.corners, adj.corner_offsets[nv]);
+  parallel_for_index(nv, 4096, [&](std::size_t i) {
+    const std::size_t r = list_of(i);  // vertex i in the triangles' numbering
+    const uint32_t row_begin = adj.offsets[i], row_end = adj.offsets[i + 1];
+    // The slot of v (triangles' numbering) in row i, as cotan_row finds it.
+    auto slot_of = [&](uint32_t v) -> uint8_t {
+      if (v == r) return kCornerSelf;
+      const uint32_t u = rank.empty() ? v : rank[v];
+      for (uint32_t e = row_begin; e < row_end; ++e)
+        if (adj.neighbors[e] == u) return uint8_t(e - row_begin);
+      return kCornerSelf;  // not reached: every other corner of an incident triangle is a neighbour
+    };
+    CornerSlots* out = adj.corners.data() + adj.corner_offsets[i];
+    for (uint32_t k = adj.tri_offsets[r]; k < adj.tri_offsets[r + 1]; ++k) {
+      const Triangle& t = triangles[adj.tri_ids[k]];
+      const int c = t[0] == r ? 0 : (t[1] == r ? 1 : 2);
+      *out++ = {slot_of(t[std::size_t(c + 1) % 3]), slot_of(t[std::size_t(c + 2) % 3])};
+    }
+  });
+  UninitVector<uint32_t>().swap(adj.tri_offsets);
+  UninitVector<uint32_t>().swap(adj.tri_ids);
+  std::vector<uint32_t>().swap(adj.tri_row);
+  return true;
+}
+
 Adjacency renumber_adjacency(Adjacency&& adj, std::vector<uint32_t> order) {
   const std::size_t nv = adj.vertex_count();
   UninitVector<uint32_t> rank;

@@ -8,6 +8,7 @@
 
 #include "common/huge_pages.hpp"
 #include "meniscus/mesh.hpp"
+#include "smooth/operators_impl.hpp"
 
 namespace meniscus {
 
@@ -20,6 +21,10 @@ struct Adjacency {
   /// Empty, or the list of vertex i is list tri_row[i] (renumber_adjacency keeps the lists of the
   /// original numbering instead of permuting them: tri_row = the permutation).
   std::vector<uint32_t> tri_row;
+  /// Empty, or (adopt_corner_lists) the triangle lists instead as the row slots of each incident
+  /// triangle's other two corners: corners[corner_offsets[i] .. corner_offsets[i+1]) for vertex i.
+  UninitVector<uint32_t> corner_offsets;
+  UninitVector<CornerSlots> corners;
 
   std::size_t vertex_count() const { return offsets.empty() ? 0 : offsets.size() - 1; }
   std::span<const uint32_t> row(uint32_t i) const {
@@ -39,6 +44,15 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
 /// (build_cotan_operator). Much cheaper than build_adjacency of the relabelled triangles, which it
 /// equals up to the order within rows.
 Adjacency renumber_adjacency(Adjacency&& adjacency, std::vector<uint32_t> order);
+
+/// Replaces the triangle lists (tri_offsets, tri_ids, tri_row: freed) by corner lists, in the same
+/// order: for each incident triangle of a vertex, the slots of its other two corners in the
+/// vertex's row. The operator's build then needs neither the triangles nor a search of the row per
+/// corner, and the lists take 2 bytes a triangle corner instead of 4 plus the triangle's 12.
+/// `triangles` are the ones the lists index, in their own numbering; `rank` maps that numbering to
+/// the adjacency's (empty: the same). Returns false, changing nothing, when a row is longer than
+/// kMaxCornerRow (a slot must fit a byte).
+bool adopt_corner_lists(Adjacency& adjacency, std::span<const Triangle> triangles, std::span<const uint32_t> rank);
 
 /// Vertices grouped into colour classes such that no two vertices of a class are within
 /// `distance` (1 or 2) edges of each other: vertices[offsets[c] .. offsets[c+1]) have colour c.

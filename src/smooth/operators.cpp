@@ -46,14 +46,23 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
   resize_huge(op.area, nv);
   resize_huge(op.b_diag, nv);
   // Each vertex assembles its own row from its incident triangles: no two threads write the
-  // same entry, so no atomics are needed.
-  const MeshRows rows{adj.offsets.data(), adj.neighbors.data(), adj.tri_offsets.data(), adj.tri_ids.data(),
-                      triangles.empty() ? nullptr : triangles.data()->data(),
-                      adj.tri_row.empty() ? nullptr : adj.tri_row.data()};
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const auto& r) {
-    for (std::size_t iv = r.begin(); iv != r.end(); ++iv)
-      cotan_row(rows, x.data(), uint32_t(iv), op.w.data(), &op.diag[iv], &op.area[iv]);
-  });
+  // same entry, so no atomics are needed. From the corner lists when the adjacency has them (the
+  // triangles are then not read), else from the triangle lists.
+  if (!adj.corner_offsets.empty()) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const auto& r) {
+      for (std::size_t iv = r.begin(); iv != r.end(); ++iv)
+        cotan_row_corners(adj.offsets.data(), adj.neighbors.data(), adj.corner_offsets.data(), adj.corners.data(),
+                          x.data(), uint32_t(iv), op.w.data(), &op.diag[iv], &op.area[iv]);
+    });
+  } else {
+    const MeshRows rows{adj.offsets.data(), adj.neighbors.data(), adj.tri_offsets.data(), adj.tri_ids.data(),
+                        triangles.empty() ? nullptr : triangles.data()->data(),
+                        adj.tri_row.empty() ? nullptr : adj.tri_row.data()};
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const auto& r) {
+      for (std::size_t iv = r.begin(); iv != r.end(); ++iv)
+        cotan_row(rows, x.data(), uint32_t(iv), op.w.data(), &op.diag[iv], &op.area[iv]);
+    });
+  }
   // Vertices that collapsed onto a neighbour have no area; a floor relative to the mean area
   // keeps D invertible without changing any healthy vertex.
   // Summed in the fixed tree the CUDA backend uses too, so both get the same floor.

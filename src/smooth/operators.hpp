@@ -19,7 +19,9 @@ struct CotanOperator {
   UninitVector<float> w, diag, area, b_diag;  ///< written whole by build_cotan_operator's parallel passes
 };
 
-/// Builds W, D and diag(B) for the current positions (parallel over vertices, no atomics).
+/// Builds W, D and diag(B) for the current positions (parallel over vertices, no atomics), from
+/// the adjacency's corner lists when it has them (`triangles` unused), else from its triangle lists
+/// of `triangles` (in the adjacency's numbering).
 /// `rank` (old → new index), for renumbered vertices: the floor on D comes from the mean area
 /// summed in the original numbering, as if they had not been renumbered.
 CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Triangle> triangles,

@@ -54,39 +54,91 @@ MENISCUS_HD inline Vec3f bilaplacian_row_from_wx(const uint32_t* offsets, const 
   return out;
 }
 
-/// Row i of W (w[offsets[i] ..), overwritten) from i's incident triangles; returns W_ii = −Σ_j W_ij
-/// in *diag and the third of the clamped incident area in *area.
-MENISCUS_HD inline void cotan_row(const MeshRows& m, const Vec3f* x, uint32_t i, float* w, float* diag, float* area) {
-  const uint32_t row_begin = m.offsets[i], row_end = m.offsets[i + 1];
+/// One incident triangle (i, j, l) of a vertex i, its corners in the triangle's order, with the
+/// slots of j and l in i's row (kNoSlot: the corner is i itself, in a degenerate triangle).
+struct CotanCorners {
+  uint32_t j, l;
+  uint32_t slot_j, slot_l;
+};
+inline constexpr uint32_t kNoSlot = 0xffffffffu;
+
+/// Row i of W (w[row_begin .. row_end), overwritten) from i's `count` incident triangles, the k-th
+/// given by corners(k) (a CotanCorners); returns W_ii = −Σ_j W_ij in *diag and the third of the
+/// clamped incident area in *area. The arithmetic of both ways of listing the triangles below
+/// (the same float operations in the same order: the same bits).
+template <class Corners>
+MENISCUS_HD inline void cotan_row_from(uint32_t row_begin, uint32_t row_end, uint32_t count, Corners&& corners,
+                                       const Vec3f* x, uint32_t i, float* w, float* diag, float* area) {
   float* wrow = w + row_begin;
   for (uint32_t e = 0; e < row_end - row_begin; ++e) wrow[e] = 0.0f;
   float a = 0;
-  const uint32_t r = m.tri_row != nullptr ? m.tri_row[i] : i;
-  for (uint32_t k = m.tri_offsets[r]; k < m.tri_offsets[r + 1]; ++k) {
-    const uint32_t* t = m.triangles + 3 * std::size_t(m.tri_ids[k]);
-    const int c = t[0] == i ? 0 : (t[1] == i ? 1 : 2);
-    const uint32_t j = t[(c + 1) % 3], l = t[(c + 2) % 3];
-    const Vec3f pi = x[i], pj = x[j], pl = x[l];
+  for (uint32_t k = 0; k < count; ++k) {
+    const CotanCorners c = corners(k);
+    const Vec3f pi = x[i], pj = x[c.j], pl = x[c.l];
     // Edge (i, j) is opposite the angle at l; edge (i, l) is opposite the angle at j.
     const float cot_l = clamped_cotangent(pl, pi, pj);
     const float cot_j = clamped_cotangent(pj, pi, pl);
-    // v's entry in the row (six or seven entries; in any order — renumbered rows keep the order of
-    // the original numbering); a corner repeated in a degenerate triangle has none.
-    auto add = [&](uint32_t v, float cot) {
-      for (uint32_t e = row_begin; e < row_end; ++e)
-        if (m.neighbors[e] == v) {
-          wrow[e - row_begin] += cot;
-          return;
-        }
-    };
-    add(j, cot_l);
-    add(l, cot_j);
+    if (c.slot_j != kNoSlot) wrow[c.slot_j] += cot_l;
+    if (c.slot_l != kNoSlot) wrow[c.slot_l] += cot_j;
     a += clamped_area(pi, pj, pl);
   }
   float sum = 0;
   for (uint32_t k = 0; k < row_end - row_begin; ++k) sum += wrow[k];
   *diag = -sum;
   *area = a / 3.0f;
+}
+
+/// Row i of W from i's incident triangles in MeshRows' lists (the CUDA backend's; the CPU's
+/// reference for the corner lists below).
+MENISCUS_HD inline void cotan_row(const MeshRows& m, const Vec3f* x, uint32_t i, float* w, float* diag, float* area) {
+  const uint32_t row_begin = m.offsets[i], row_end = m.offsets[i + 1];
+  const uint32_t r = m.tri_row != nullptr ? m.tri_row[i] : i;
+  const uint32_t first = m.tri_offsets[r];
+  // v's slot in the row (six or seven entries; in any order — renumbered rows keep the order of
+  // the original numbering); a corner repeated in a degenerate triangle has none.
+  auto slot_of = [&](uint32_t v) {
+    for (uint32_t e = row_begin; e < row_end; ++e)
+      if (m.neighbors[e] == v) return e - row_begin;
+    return kNoSlot;
+  };
+  cotan_row_from(row_begin, row_end, m.tri_offsets[r + 1] - first, [&](uint32_t k) {
+    const uint32_t* t = m.triangles + 3 * std::size_t(m.tri_ids[first + k]);
+    const int c = t[0] == i ? 0 : (t[1] == i ? 1 : 2);
+    const uint32_t j = t[(c + 1) % 3], l = t[(c + 2) % 3];
+    return CotanCorners{j, l, slot_of(j), slot_of(l)};
+  }, x, i, w, diag, area);
+}
+
+/// An incident triangle of a vertex as the slots, in the vertex's row, of its two other corners
+/// (in the triangle's order after the vertex); kCornerSelf for a corner that is the vertex itself.
+struct CornerSlots {
+  uint8_t j, l;
+};
+inline constexpr uint8_t kCornerSelf = 0xff;
+/// Rows up to this long have corner lists (a slot fits a byte, kCornerSelf apart).
+inline constexpr uint32_t kMaxCornerRow = 0xfe;
+
+/// Row i of W from its corner lists: incident triangles corners[corner_offsets[i] ..
+/// corner_offsets[i+1]), in the order of MeshRows' lists — the same row as cotan_row there.
+MENISCUS_HD inline void cotan_row_corners(const uint32_t* offsets, const uint32_t* neighbors,
+                                          const uint32_t* corner_offsets, const CornerSlots* corners, const Vec3f* x,
+                                          uint32_t i, float* w, float* diag, float* area) {
+  const uint32_t row_begin = offsets[i], row_end = offsets[i + 1];
+  const CornerSlots* list = corners + corner_offsets[i];
+  auto corner = [&](uint8_t slot, uint32_t& v) {
+    if (slot == kCornerSelf) {
+      v = i;
+      return kNoSlot;
+    }
+    v = neighbors[row_begin + slot];
+    return uint32_t(slot);
+  };
+  cotan_row_from(row_begin, row_end, corner_offsets[i + 1] - corner_offsets[i], [&](uint32_t k) {
+    CotanCorners c;
+    c.slot_j = corner(list[k].j, c.j);
+    c.slot_l = corner(list[k].l, c.l);
+    return c;
+  }, x, i, w, diag, area);
 }
 
 /// B_ii = W_ii² / D_i + Σ_k W_ik² / D_k; a unit diagonal for an isolated or broken row.

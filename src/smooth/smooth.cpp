@@ -11,6 +11,7 @@
 
 #include "common/huge_pages.hpp"
 #include "common/parallel_index.hpp"
+#include "mesh/packed_triangles.hpp"
 #include "smooth/adjacency.hpp"
 #include "smooth/operators.hpp"
 
@@ -158,8 +159,9 @@ SweepLayout sweep_layout(const Adjacency& adj, bool renumber) {
   return layout;
 }
 
-/// Renumbers the mesh (positions and triangle corners) by `rank` (old index → new) for the
-/// lifetime of the object, and back when it ends (also when the sweeps throw). Each direction
+/// Renumbers the mesh (positions, and the triangle corners unless `triangles` is empty) by `rank`
+/// (old index → new) for the lifetime of the object, and back when it ends (also when the sweeps
+/// throw). Each direction
 /// allocates before it changes anything, so a failed allocation leaves the mesh as it was; the way
 /// back runs after the sweeps' arrays are freed (on return or unwinding), so its 16 bytes a vertex
 /// are there to take.
@@ -203,7 +205,8 @@ class Renumbered {
 /// The schedule; `project(i, from)` projects vertex i in place (when `constrained_any`), `from` being
 /// where the vertex was before the move (where its previous projection left it); `forget()` is
 /// called when the energy guard puts the vertices back where they were before a sweep. `adj` is the
-/// triangles' (its triangle lists are freed once the operator is built). Gauss-Seidel when
+/// triangles' (its triangle or corner lists are freed once the operator is built); `triangles` may
+/// be empty when it has corner lists. Gauss-Seidel when
 /// `layout` is given (the classes, in the numbering of x and triangles), Jacobi otherwise.
 template <class Project, class PrefetchConstraint, class Forget>
 SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triangles, Adjacency& adj,
@@ -273,12 +276,14 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
     CotanOperator op = build_cotan_operator(x, triangles, adj, rank);
     const auto b_start = std::chrono::steady_clock::now();
     if (o.rebuild_b == 0) {
-      // The triangle lists only serve to build the operator: free them for the sweeps (32 bytes a
-      // vertex with tri_row, an eighth of the smoothing's memory).
+      // The triangle or corner lists only serve to build the operator: free them for the sweeps
+      // (16 bytes a vertex as corner lists, 32 as triangle lists with tri_row).
       // (swap with empty vectors: `= {}` would keep the capacity).
       UninitVector<uint32_t>().swap(adj.tri_offsets);
       UninitVector<uint32_t>().swap(adj.tri_ids);
       std::vector<uint32_t>().swap(adj.tri_row);
+      UninitVector<uint32_t>().swap(adj.corner_offsets);
+      UninitVector<CornerSlots>().swap(adj.corners);
     }
     float w = o.relax_b;
     double energy = energy_of(adj, op, x, scratch, rank);
@@ -349,43 +354,80 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
   return report;
 }
 
+/// Keeps a mesh's triangles packed (PackedTriangles) while the sweeps run; unpacks them when
+/// restore() is called or, if the sweeps throw first, when it is destroyed.
+class TrianglesPackedAway {
+ public:
+  explicit TrianglesPackedAway(std::vector<Triangle>& triangles) : triangles_(triangles) {}
+  ~TrianglesPackedAway() {
+    try {
+      restore();
+    } catch (...) {  // unwinding already: the triangles are lost with the failed call
+    }
+  }
+  TrianglesPackedAway(const TrianglesPackedAway&) = delete;
+  TrianglesPackedAway& operator=(const TrianglesPackedAway&) = delete;
+  void pack() { packed_.pack(triangles_); }
+  void restore() {
+    if (packed_.packed()) packed_.unpack(triangles_);
+  }
+
+ private:
+  std::vector<Triangle>& triangles_;
+  PackedTriangles packed_;
+};
+
 /// The schedule with constraint `c` (null: none) projected through a Cache (NeighbourCache,
-/// EllipsoidCache); Gauss-Seidel in the SweepLayout numbering.
+/// EllipsoidCache); Gauss-Seidel in the SweepLayout numbering. The operator is built from corner
+/// lists (adopt_corner_lists), so the triangles are not read during the sweeps: they wait packed,
+/// in their own numbering (about 7 bytes a vertex instead of 24), and are neither renumbered nor
+/// numbered back. Only a mesh with a row too long for the corner lists keeps its triangles, and
+/// has them renumbered with the positions.
 template <class Cache, class Constraint>
-SmoothReport smooth_cached(std::vector<Vec3f>& x, std::span<Triangle> triangles, const Constraint* constraint,
+SmoothReport smooth_cached(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, const Constraint* constraint,
                            const SmoothOptions& o, const std::function<void(double)>& progress) {
   if (x.empty() || o.steps_a + o.steps_b + o.steps_free == 0) return {};
   const bool gauss_seidel = o.solver == SmoothingSolver::gauss_seidel;
+  const bool renumber = gauss_seidel && o.renumber;
   SweepLayout layout;
   std::optional<Renumbered> renumbered;
+  TrianglesPackedAway packed(triangles);  // destroyed after the sweeps' arrays, before renumbered
   SmoothOptions options = o;
   std::vector<float> relax;
-  Adjacency adj = build_adjacency(x.size(), triangles);
-  if (gauss_seidel) layout = sweep_layout(adj, o.renumber);
-  if (gauss_seidel && o.renumber) {
-    if (o.vertex_relax.size() == x.size()) {
-      relax.resize(x.size());
-      for (std::size_t n = 0; n < x.size(); ++n) relax[n] = o.vertex_relax[layout.order[n]];
-      options.vertex_relax = relax;
+  SmoothReport report;
+  {
+    Adjacency adj = build_adjacency(x.size(), triangles);
+    if (gauss_seidel) layout = sweep_layout(adj, o.renumber);
+    if (renumber) {
+      if (o.vertex_relax.size() == x.size()) {
+        relax.resize(x.size());
+        for (std::size_t n = 0; n < x.size(); ++n) relax[n] = o.vertex_relax[layout.order[n]];
+        options.vertex_relax = relax;
+      }
+      // The order becomes the adjacency's tri_row (the sweeps need only rank).
+      adj = renumber_adjacency(std::move(adj), std::move(layout.order));
     }
-    // The order becomes the adjacency's tri_row (the sweeps need only rank).
-    adj = renumber_adjacency(std::move(adj), std::move(layout.order));
-    renumbered.emplace(x, triangles, layout.rank);
-  }
-  // Vertices move little per sweep: each keeps a list of its nearby particles, refreshed only
-  // when the vertex has moved too far from where the list was made.
-  Cache cache;
-  if (constraint) cache.build(*constraint, x);
-  return smooth_with(
-      x, triangles, adj, gauss_seidel ? &layout : nullptr, constraint != nullptr,
-      [&](uint32_t i, Vec3f from) { x[i] = cache.project(*constraint, i, x[i], from); },
-      [&](uint32_t i) { cache.prefetch(i); }, [&] { cache.forget_slack(); }, options, progress);
+    const bool corners = adopt_corner_lists(adj, triangles, renumber ? std::span<const uint32_t>(layout.rank)
+                                                                     : std::span<const uint32_t>());
+    if (renumber) renumbered.emplace(x, corners ? std::span<Triangle>() : std::span<Triangle>(triangles), layout.rank);
+    if (corners) packed.pack();
+    // Vertices move little per sweep: each keeps a list of its nearby particles, refreshed only
+    // when the vertex has moved too far from where the list was made.
+    Cache cache;
+    if (constraint) cache.build(*constraint, x);
+    report = smooth_with(
+        x, triangles, adj, gauss_seidel ? &layout : nullptr, constraint != nullptr,
+        [&](uint32_t i, Vec3f from) { x[i] = cache.project(*constraint, i, x[i], from); },
+        [&](uint32_t i) { cache.prefetch(i); }, [&] { cache.forget_slack(); }, options, progress);
+  }  // the adjacency, operator lists and particle lists freed: room for the triangles
+  packed.restore();
+  return report;  // renumbered maps the positions back
 }
 
 /// smooth_cached, with the set-up's time: the whole call (the way back from the renumbering
 /// included) less the sweeps.
 template <class Cache, class Constraint>
-SmoothReport smooth_timed(std::vector<Vec3f>& x, std::span<Triangle> triangles, const Constraint* constraint,
+SmoothReport smooth_timed(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, const Constraint* constraint,
                           const SmoothOptions& o, const std::function<void(double)>& progress) {
   const auto start = std::chrono::steady_clock::now();
   SmoothReport r = smooth_cached<Cache>(x, triangles, constraint, o, progress);
@@ -395,12 +437,12 @@ SmoothReport smooth_timed(std::vector<Vec3f>& x, std::span<Triangle> triangles, 
 
 }  // namespace
 
-SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<Triangle> triangles, const ShellConstraint* constraint,
+SmoothReport smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, const ShellConstraint* constraint,
                             const SmoothOptions& o, const std::function<void(double)>& progress) {
   return smooth_timed<NeighbourCache>(x, triangles, constraint, o, progress);
 }
 
-SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<Triangle> triangles,
+SmoothReport smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles,
                             const EllipsoidConstraint* constraint, const SmoothOptions& o,
                             const std::function<void(double)>& progress) {
   return smooth_timed<EllipsoidCache>(x, triangles, constraint, o, progress);

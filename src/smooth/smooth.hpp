@@ -26,20 +26,20 @@ struct SmoothOptions : SmoothSchedule {
 
 /// Runs the schedule on `x` (in place). `constraint` may be null (no projection at all).
 /// `progress` receives the completed fraction of all sweeps. The Gauss-Seidel sweeps renumber the
-/// vertices for the duration of the call (the triangles' corners with them); both come back in
-/// their own numbering.
-SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<Triangle> triangles,
+/// vertices for the duration of the call; the triangles are held packed meanwhile (the vector is
+/// empty during the call); both come back in their own numbering.
+SmoothReport smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles,
                             const ShellConstraint* constraint, const SmoothOptions& options,
                             const std::function<void(double)>& progress = {});
 
 /// No constraint at all.
-inline SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<Triangle> triangles, std::nullptr_t,
+inline SmoothReport smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, std::nullptr_t,
                                    const SmoothOptions& options, const std::function<void(double)>& progress = {}) {
   return smooth_surface(x, triangles, static_cast<const ShellConstraint*>(nullptr), options, progress);
 }
 
 /// The same schedule with ellipsoid constraints (anisotropic kernels); `constraint` may be null.
-SmoothReport smooth_surface(std::vector<Vec3f>& x, std::span<Triangle> triangles,
+SmoothReport smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles,
                             const EllipsoidConstraint* constraint, const SmoothOptions& options,
                             const std::function<void(double)>& progress = {});
 

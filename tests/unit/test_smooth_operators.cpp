@@ -258,6 +258,84 @@ TEST(CotanOperator, MatchesADenseReferenceOnAnIrregularMesh) {
   EXPECT_NEAR(bilaplacian_energy(op, wx), energy, 1e-4 * energy);
 }
 
+// The operator from corner lists (adopt_corner_lists: what the CPU sweeps use) is bit for bit the
+// one from the triangle lists (cotan_row over MeshRows: what the CUDA backend uses), on a closed
+// mesh, an open one with a degenerate triangle, and renumbered — the corner lists then made from
+// the triangles in their own numbering, the reference from the relabelled ones.
+TEST(CotanOperator, CornerListsGiveTheTriangleListsOperatorBitForBit) {
+  const TriangleMesh closed = perturbed_sphere(4, 0.02f, 7);
+  TriangleMesh open = closed;
+  open.triangles.clear();
+  for (std::size_t f = 0; f < closed.triangles.size(); ++f)
+    if (f % 7 != 3) open.triangles.push_back(closed.triangles[f]);
+  open.triangles.push_back({5, 5, 17});  // a corner repeated: no slot, as in cotan_row
+  auto same = [](const CotanOperator& a, const CotanOperator& b, const char* what) {
+    ASSERT_EQ(a.w.size(), b.w.size()) << what;
+    for (std::size_t e = 0; e < a.w.size(); ++e) ASSERT_EQ(a.w[e], b.w[e]) << what << " entry " << e;
+    for (std::size_t i = 0; i < a.area.size(); ++i) {
+      ASSERT_EQ(a.diag[i], b.diag[i]) << what << " vertex " << i;
+      ASSERT_EQ(a.area[i], b.area[i]) << what << " vertex " << i;
+      ASSERT_EQ(a.b_diag[i], b.b_diag[i]) << what << " vertex " << i;
+    }
+  };
+  for (const TriangleMesh* m : {&closed, static_cast<const TriangleMesh*>(&open)}) {
+    const std::size_t nv = m->vertices.size();
+    const Adjacency lists = build_adjacency(nv, m->triangles);
+    const CotanOperator reference = build_cotan_operator(m->vertices, m->triangles, lists);
+    Adjacency corners = build_adjacency(nv, m->triangles);
+    ASSERT_TRUE(adopt_corner_lists(corners, m->triangles, {}));
+    EXPECT_TRUE(corners.tri_ids.empty() && corners.tri_offsets.empty()) << "the triangle lists are freed";
+    ASSERT_EQ(corners.corner_offsets.size(), nv + 1);
+    EXPECT_EQ(corners.corners.size(), 3 * m->triangles.size());
+    same(build_cotan_operator(m->vertices, {}, corners), reference, "plain");
+
+    // Renumbered: new vertex n is old order[n].
+    std::vector<uint32_t> order(nv), rank(nv);
+    for (std::size_t n = 0; n < nv; ++n) order[n] = uint32_t((n * 101 + 7) % nv);
+    for (std::size_t n = 0; n < nv; ++n) rank[order[n]] = uint32_t(n);
+    std::vector<Vec3f> x(nv);
+    for (std::size_t n = 0; n < nv; ++n) x[n] = m->vertices[order[n]];
+    std::vector<Triangle> relabelled = m->triangles;
+    for (Triangle& t : relabelled)
+      for (uint32_t& v : t) v = rank[v];
+    const Adjacency renumbered_lists = renumber_adjacency(build_adjacency(nv, m->triangles), order);
+    const CotanOperator renumbered_reference = build_cotan_operator(x, relabelled, renumbered_lists);
+    Adjacency renumbered_corners = renumber_adjacency(build_adjacency(nv, m->triangles), order);
+    ASSERT_TRUE(adopt_corner_lists(renumbered_corners, m->triangles, rank));
+    EXPECT_TRUE(renumbered_corners.tri_row.empty());
+    same(build_cotan_operator(x, {}, renumbered_corners), renumbered_reference, "renumbered");
+  }
+}
+
+// A row longer than a byte can index keeps the triangle lists (adopt_corner_lists declines and
+// changes nothing); the operator then comes from them as before.
+TEST(CotanOperator, ARowTooLongForCornerListsKeepsTheTriangleLists) {
+  TriangleMesh fan;  // a cone: apex 0 over a ring of 300 vertices, closed by a second apex
+  const uint32_t ring = 300;
+  fan.vertices.push_back({0, 0, 1});
+  fan.vertices.push_back({0, 0, -1});
+  for (uint32_t k = 0; k < ring; ++k) {
+    const float a = 6.2831853f * float(k) / float(ring);
+    fan.vertices.push_back({std::cos(a), std::sin(a), 0});
+  }
+  for (uint32_t k = 0; k < ring; ++k) {
+    const uint32_t a = 2 + k, b = 2 + (k + 1) % ring;
+    fan.triangles.push_back({0, a, b});
+    fan.triangles.push_back({1, b, a});
+  }
+  Adjacency adj = build_adjacency(fan.vertices.size(), fan.triangles);
+  ASSERT_GT(adj.row(0).size(), std::size_t(kMaxCornerRow));
+  const std::size_t tri_ids = adj.tri_ids.size();
+  EXPECT_FALSE(adopt_corner_lists(adj, fan.triangles, {}));
+  EXPECT_EQ(adj.tri_ids.size(), tri_ids);
+  EXPECT_TRUE(adj.corner_offsets.empty());
+  const CotanOperator op = build_cotan_operator(fan.vertices, fan.triangles, adj);
+  float sum = 0;
+  for (uint32_t e = adj.offsets[0]; e < adj.offsets[1]; ++e) sum += op.w[e];
+  EXPECT_EQ(op.diag[0], -sum);
+  EXPECT_GT(op.area[0], 0.0f);
+}
+
 TEST(CotanOperator, ClampsSliversAndObtuseAngles) {
   // A needle triangle: the angle at the apex is ~0 (huge cotangent) and one angle is obtuse.
   const Vec3f a{0, 0, 0}, b{1, 0, 0}, c{0.5f, 1e-6f, 0};

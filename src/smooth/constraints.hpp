@@ -109,8 +109,11 @@ class CachedParticleLists {
 /// exceeds (best distance + m), and is certified when its distance is ≤ reach − m; otherwise the
 /// list is rebuilt at y (and the grid answers if even that cannot certify). Each vertex touches
 /// only its own list, so vertices may be projected in parallel as long as no vertex is
-/// projected by two threads at once.
-class NeighbourCache : public CachedParticleLists<4> {
+/// projected by two threads at once. Two particles a list (24 bytes a vertex with the record and
+/// the slack): as fast as four or eight in splash and block runs — the slack test ends most
+/// projections, and the nearest particle rarely changes between refreshes — and 8 bytes a vertex
+/// less than four, through the whole smoothing (bench/RESULTS.md).
+class NeighbourCache : public CachedParticleLists<2> {
  public:
   /// Lists, for every vertex, the particles nearest to its current position.
   void build(const ShellConstraint& c, std::span<const Vec3f> x);
@@ -168,7 +171,9 @@ Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x);
 /// at all while L·(its move) ≤ s. Otherwise the list is rebuilt at y, and nearest_in_metric
 /// answers if even that cannot certify. Gives exactly project_vertex(c, x); each vertex touches
 /// only its own list (vertices may be projected in parallel, no vertex by two threads at once).
-class EllipsoidCache : public CachedParticleLists<8> {
+/// Four particles a list: as fast as eight on an anisotropic splash, 16 bytes a vertex less; two
+/// made the A sweeps 8 % slower (the metric-nearest particle changes more often).
+class EllipsoidCache : public CachedParticleLists<4> {
  public:
   void build(const EllipsoidConstraint& c, std::span<const Vec3f> x);
   /// As NeighbourCache::project (`from`: where the previous projection left the vertex; the

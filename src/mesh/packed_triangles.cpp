@@ -54,7 +54,6 @@ void PackedTriangles::pack(std::vector<Triangle>& triangles) {
   count_ = triangles.size();
   const std::size_t blocks = (count_ + kBlock - 1) / kBlock;
   block_begin_.assign(blocks + 1, 0);
-  auto block_range = [&](std::size_t b) { return std::pair(b * kBlock, std::min(count_, (b + 1) * kBlock)); };
   tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
     const auto [first, last] = block_range(b);
     std::size_t bytes = 0;
@@ -88,7 +87,8 @@ void PackedTriangles::unpack(std::vector<Triangle>& triangles) {
   tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
     const uint8_t* in = bytes_.data() + block_begin_[b];
     uint32_t previous = 0;
-    for (std::size_t k = b * kBlock; k < std::min(count_, (b + 1) * kBlock); ++k) {
+    const auto [first, last] = block_range(b);
+    for (std::size_t k = first; k < last; ++k) {
       uint64_t z0, z1, z2;
       in = get_varint(get_varint(get_varint(in, z0), z1), z2);
       const uint32_t v0 = uint32_t(int64_t(previous) + unzigzag(z0));

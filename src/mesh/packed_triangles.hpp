@@ -2,8 +2,10 @@
 // smoothing sweeps never read the triangles once the operator's corner lists are built).
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "common/huge_pages.hpp"
@@ -30,6 +32,11 @@ class PackedTriangles {
   std::size_t packed_bytes() const { return bytes_.size(); }
 
  private:
+  /// The triangles [first, last) of block b.
+  std::pair<std::size_t, std::size_t> block_range(std::size_t b) const {
+    return {b * kBlock, std::min(count_, (b + 1) * kBlock)};
+  }
+
   bool packed_ = false;
   std::size_t count_ = 0;
   UninitVector<uint8_t> bytes_;

@@ -110,21 +110,19 @@ bool adopt_corner_lists(Adjacency& adj, std::span<const Triangle> triangles, std
   std::inclusive_scan(adj.corner_offsets.begin(), adj.corner_offsets.end(), adj.corner_offsets.begin());
   resize_huge(adj.corners, adj.corner_offsets[nv]);
   parallel_for_index(nv, 4096, [&](std::size_t i) {
-    const std::size_t r = list_of(i);  // vertex i in the triangles' numbering
+    const uint32_t r = uint32_t(list_of(i));  // vertex i in the triangles' numbering
     const uint32_t row_begin = adj.offsets[i], row_end = adj.offsets[i + 1];
-    // The slot of v (triangles' numbering) in row i, as cotan_row finds it.
-    auto slot_of = [&](uint32_t v) -> uint8_t {
-      if (v == r) return kCornerSelf;
-      const uint32_t u = rank.empty() ? v : rank[v];
-      for (uint32_t e = row_begin; e < row_end; ++e)
-        if (adj.neighbors[e] == u) return uint8_t(e - row_begin);
-      return kCornerSelf;  // not reached: every other corner of an incident triangle is a neighbour
+    // The slot of v (triangles' numbering) in row i, as cotan_row finds it; kNoSlot (i itself, in
+    // a degenerate triangle) becomes kCornerSelf.
+    auto slot_of = [&](uint32_t v) {
+      const uint32_t slot = v == r ? kNoSlot : row_slot(adj.neighbors.data(), row_begin, row_end, rank.empty() ? v : rank[v]);
+      return slot == kNoSlot ? kCornerSelf : uint8_t(slot);
     };
     CornerSlots* out = adj.corners.data() + adj.corner_offsets[i];
     for (uint32_t k = adj.tri_offsets[r]; k < adj.tri_offsets[r + 1]; ++k) {
-      const Triangle& t = triangles[adj.tri_ids[k]];
-      const int c = t[0] == r ? 0 : (t[1] == r ? 1 : 2);
-      *out++ = {slot_of(t[std::size_t(c + 1) % 3]), slot_of(t[std::size_t(c + 2) % 3])};
+      uint32_t j, l;
+      corners_after(triangles[adj.tri_ids[k]].data(), r, &j, &l);
+      *out++ = {slot_of(j), slot_of(l)};
     }
   });
   UninitVector<uint32_t>().swap(adj.tri_offsets);

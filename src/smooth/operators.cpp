@@ -48,20 +48,21 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
   // Each vertex assembles its own row from its incident triangles: no two threads write the
   // same entry, so no atomics are needed. From the corner lists when the adjacency has them (the
   // triangles are then not read), else from the triangle lists.
-  if (!adj.corner_offsets.empty()) {
+  auto for_each_row = [&](auto&& row) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const auto& r) {
-      for (std::size_t iv = r.begin(); iv != r.end(); ++iv)
-        cotan_row_corners(adj.offsets.data(), adj.neighbors.data(), adj.corner_offsets.data(), adj.corners.data(),
-                          x.data(), uint32_t(iv), op.w.data(), &op.diag[iv], &op.area[iv]);
+      for (std::size_t iv = r.begin(); iv != r.end(); ++iv) row(uint32_t(iv), &op.diag[iv], &op.area[iv]);
+    });
+  };
+  if (!adj.corner_offsets.empty()) {
+    for_each_row([&](uint32_t i, float* diag, float* area) {
+      cotan_row_corners(adj.offsets.data(), adj.neighbors.data(), adj.corner_offsets.data(), adj.corners.data(),
+                        x.data(), i, op.w.data(), diag, area);
     });
   } else {
     const MeshRows rows{adj.offsets.data(), adj.neighbors.data(), adj.tri_offsets.data(), adj.tri_ids.data(),
                         triangles.empty() ? nullptr : triangles.data()->data(),
                         adj.tri_row.empty() ? nullptr : adj.tri_row.data()};
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const auto& r) {
-      for (std::size_t iv = r.begin(); iv != r.end(); ++iv)
-        cotan_row(rows, x.data(), uint32_t(iv), op.w.data(), &op.diag[iv], &op.area[iv]);
-    });
+    for_each_row([&](uint32_t i, float* diag, float* area) { cotan_row(rows, x.data(), i, op.w.data(), diag, area); });
   }
   // Vertices that collapsed onto a neighbour have no area; a floor relative to the mean area
   // keeps D invertible without changing any healthy vertex.

@@ -88,24 +88,34 @@ MENISCUS_HD inline void cotan_row_from(uint32_t row_begin, uint32_t row_end, uin
   *area = a / 3.0f;
 }
 
+/// v's slot in the row neighbors[row_begin .. row_end) (six or seven entries; in any order —
+/// renumbered rows keep the order of the original numbering), kNoSlot when it is not there (the
+/// vertex itself, a corner repeated in a degenerate triangle).
+MENISCUS_HD inline uint32_t row_slot(const uint32_t* neighbors, uint32_t row_begin, uint32_t row_end, uint32_t v) {
+  for (uint32_t e = row_begin; e < row_end; ++e)
+    if (neighbors[e] == v) return e - row_begin;
+  return kNoSlot;
+}
+
+/// The corners of triangle t after its corner i, in the triangle's order: *j then *l.
+MENISCUS_HD inline void corners_after(const uint32_t* t, uint32_t i, uint32_t* j, uint32_t* l) {
+  const int c = t[0] == i ? 0 : (t[1] == i ? 1 : 2);
+  *j = t[(c + 1) % 3];
+  *l = t[(c + 2) % 3];
+}
+
 /// Row i of W from i's incident triangles in MeshRows' lists (the CUDA backend's; the CPU's
 /// reference for the corner lists below).
 MENISCUS_HD inline void cotan_row(const MeshRows& m, const Vec3f* x, uint32_t i, float* w, float* diag, float* area) {
   const uint32_t row_begin = m.offsets[i], row_end = m.offsets[i + 1];
   const uint32_t r = m.tri_row != nullptr ? m.tri_row[i] : i;
   const uint32_t first = m.tri_offsets[r];
-  // v's slot in the row (six or seven entries; in any order — renumbered rows keep the order of
-  // the original numbering); a corner repeated in a degenerate triangle has none.
-  auto slot_of = [&](uint32_t v) {
-    for (uint32_t e = row_begin; e < row_end; ++e)
-      if (m.neighbors[e] == v) return e - row_begin;
-    return kNoSlot;
-  };
   cotan_row_from(row_begin, row_end, m.tri_offsets[r + 1] - first, [&](uint32_t k) {
-    const uint32_t* t = m.triangles + 3 * std::size_t(m.tri_ids[first + k]);
-    const int c = t[0] == i ? 0 : (t[1] == i ? 1 : 2);
-    const uint32_t j = t[(c + 1) % 3], l = t[(c + 2) % 3];
-    return CotanCorners{j, l, slot_of(j), slot_of(l)};
+    CotanCorners c;
+    corners_after(m.triangles + 3 * std::size_t(m.tri_ids[first + k]), i, &c.j, &c.l);
+    c.slot_j = row_slot(m.neighbors, row_begin, row_end, c.j);
+    c.slot_l = row_slot(m.neighbors, row_begin, row_end, c.l);
+    return c;
   }, x, i, w, diag, area);
 }
 

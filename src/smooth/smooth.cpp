@@ -161,10 +161,9 @@ SweepLayout sweep_layout(const Adjacency& adj, bool renumber) {
 
 /// Renumbers the mesh (positions, and the triangle corners unless `triangles` is empty) by `rank`
 /// (old index → new) for the lifetime of the object, and back when it ends (also when the sweeps
-/// throw). Each direction
-/// allocates before it changes anything, so a failed allocation leaves the mesh as it was; the way
-/// back runs after the sweeps' arrays are freed (on return or unwinding), so its 16 bytes a vertex
-/// are there to take.
+/// throw). Each direction allocates before it changes anything, so a failed allocation leaves the
+/// mesh as it was; the way back runs after the sweeps' arrays are freed (on return or unwinding),
+/// so its 16 bytes a vertex are there to take.
 class Renumbered {
  public:
   Renumbered(std::vector<Vec3f>& x, std::span<Triangle> triangles, std::span<const uint32_t> rank)
@@ -407,8 +406,7 @@ SmoothReport smooth_cached(std::vector<Vec3f>& x, std::vector<Triangle>& triangl
       // The order becomes the adjacency's tri_row (the sweeps need only rank).
       adj = renumber_adjacency(std::move(adj), std::move(layout.order));
     }
-    const bool corners = adopt_corner_lists(adj, triangles, renumber ? std::span<const uint32_t>(layout.rank)
-                                                                     : std::span<const uint32_t>());
+    const bool corners = adopt_corner_lists(adj, triangles, layout.rank);  // rank: empty unless renumbered
     if (renumber) renumbered.emplace(x, corners ? std::span<Triangle>() : std::span<Triangle>(triangles), layout.rank);
     if (corners) packed.pack();
     // Vertices move little per sweep: each keeps a list of its nearby particles, refreshed only

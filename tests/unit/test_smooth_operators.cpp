@@ -44,6 +44,15 @@ TriangleMesh perturbed_sphere(int subdivisions, float noise, uint32_t seed) {
   return m;
 }
 
+// The mesh without the triangles f with f % every == skip: open fans around the holes.
+TriangleMesh with_holes(const TriangleMesh& closed, std::size_t every, std::size_t skip) {
+  TriangleMesh open = closed;
+  open.triangles.clear();
+  for (std::size_t f = 0; f < closed.triangles.size(); ++f)
+    if (f % every != skip) open.triangles.push_back(closed.triangles[f]);
+  return open;
+}
+
 TEST(Adjacency, OctahedronRowsAreSortedNeighbours) {
   const TriangleMesh m = perturbed_sphere(0, 0, 1);
   const Adjacency adj = build_adjacency(m.vertices.size(), m.triangles);
@@ -62,11 +71,8 @@ TEST(Adjacency, OctahedronRowsAreSortedNeighbours) {
 // closed sphere and on the same sphere with every fifth triangle removed (open fans).
 TEST(Adjacency, RowsAndTriangleListsMatchABruteForceReferenceOnClosedAndOpenMeshes) {
   const TriangleMesh closed = perturbed_sphere(6, 0.01f, 5);
-  TriangleMesh open = closed;
-  open.triangles.clear();
-  for (std::size_t f = 0; f < closed.triangles.size(); ++f)
-    if (f % 5 != 2) open.triangles.push_back(closed.triangles[f]);
-  for (const TriangleMesh* m : {&closed, static_cast<const TriangleMesh*>(&open)}) {
+  const TriangleMesh open = with_holes(closed, 5, 2);
+  for (const TriangleMesh* m : {&closed, &open}) {
     const std::size_t nv = m->vertices.size();
     ASSERT_GT(nv, 4096u) << "more than one parallel grain";
     std::vector<std::set<uint32_t>> rows(nv);
@@ -264,10 +270,7 @@ TEST(CotanOperator, MatchesADenseReferenceOnAnIrregularMesh) {
 // the triangles in their own numbering, the reference from the relabelled ones.
 TEST(CotanOperator, CornerListsGiveTheTriangleListsOperatorBitForBit) {
   const TriangleMesh closed = perturbed_sphere(4, 0.02f, 7);
-  TriangleMesh open = closed;
-  open.triangles.clear();
-  for (std::size_t f = 0; f < closed.triangles.size(); ++f)
-    if (f % 7 != 3) open.triangles.push_back(closed.triangles[f]);
+  TriangleMesh open = with_holes(closed, 7, 3);
   open.triangles.push_back({5, 5, 17});  // a corner repeated: no slot, as in cotan_row
   auto same = [](const CotanOperator& a, const CotanOperator& b, const char* what) {
     ASSERT_EQ(a.w.size(), b.w.size()) << what;

@@ -6,6 +6,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <bit>
 #include <limits>
 
 #include "common/huge_pages.hpp"
@@ -25,13 +26,14 @@ struct Box {
   }
 };
 
-template <class T>
-void permute(std::vector<T>& values, const std::vector<uint32_t>& old_of_new) {
+/// values[i] = the old values[old_of_new(i)] for the n new indices i.
+template <class T, class OldOfNew>
+void permute(std::vector<T>& values, std::size_t n, OldOfNew&& old_of_new) {
   if (values.empty()) return;
   // The reordered arrays are what the smoothing and the normals read at random: huge pages.
   std::vector<T> out;
-  resize_huge(out, old_of_new.size());
-  tbb::parallel_for(std::size_t(0), old_of_new.size(), [&](std::size_t i) { out[i] = values[old_of_new[i]]; });
+  resize_huge(out, n);
+  tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) { out[i] = values[old_of_new(i)]; });
   values.swap(out);
 }
 
@@ -58,36 +60,34 @@ void reorder_vertices_spatially(TriangleMesh& mesh) {
   std::vector<uint64_t> keys(nv);
   tbb::parallel_for(std::size_t(0), nv, [&](std::size_t i) { keys[i] = uint64_t(morton_key(x[i], box.lo, scale)) << 32 | i; });
   radix_sort(keys, 32, 62);
-  std::vector<uint32_t> old_of_new(nv), new_of_old(nv);
-  tbb::parallel_for(std::size_t(0), nv, [&](std::size_t i) {
-    old_of_new[i] = uint32_t(keys[i]);
-    new_of_old[old_of_new[i]] = uint32_t(i);
-  });
-  permute(mesh.vertices, old_of_new);
-  permute(mesh.normals, old_of_new);
-  for (Attribute& a : mesh.attributes) {
-    if (a.values.empty()) continue;
-    const std::size_t k = std::size_t(a.components);
-    std::vector<float> out(a.values.size());
-    tbb::parallel_for(std::size_t(0), nv, [&](std::size_t i) {
-      std::copy_n(a.values.begin() + std::ptrdiff_t(old_of_new[i] * k), k, out.begin() + std::ptrdiff_t(i * k));
-    });
-    a.values.swap(out);
+  // The sorted keys' payloads are the old indices in the new order: the permutation, without an
+  // array of its own (on splash 1M the arrays of this function set the peak of the whole run).
+  {
+    auto old_of_new = [&](std::size_t i) { return uint32_t(keys[i]); };
+    permute(mesh.vertices, nv, old_of_new);
+    permute(mesh.normals, nv, old_of_new);
+    for (Attribute& a : mesh.attributes) {
+      if (a.values.empty()) continue;
+      const std::size_t k = std::size_t(a.components);
+      std::vector<float> out(a.values.size());
+      tbb::parallel_for(std::size_t(0), nv, [&](std::size_t i) {
+        std::copy_n(a.values.begin() + std::ptrdiff_t(old_of_new(i) * k), k, out.begin() + std::ptrdiff_t(i * k));
+      });
+      a.values.swap(out);
+    }
   }
+  std::vector<uint32_t> new_of_old(nv);
+  tbb::parallel_for(std::size_t(0), nv, [&](std::size_t i) { new_of_old[uint32_t(keys[i])] = uint32_t(i); });
+  std::vector<uint64_t>().swap(keys);
 
-  // Triangles by their smallest new vertex, then by their old position.
-  const std::size_t nt = mesh.triangles.size();
-  std::vector<uint64_t> tri_keys(nt);
-  tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) {
-    Triangle& tri = mesh.triangles[t];
-    for (uint32_t& v : tri) v = new_of_old[v];
-    tri_keys[t] = uint64_t(std::min({tri[0], tri[1], tri[2]})) << 32 | t;
+  // The triangles renumbered in place, then sorted (stably: ties keep their old order) by their
+  // smallest new vertex — the triangles themselves, with one scratch copy and no keys.
+  tbb::parallel_for(std::size_t(0), mesh.triangles.size(), [&](std::size_t t) {
+    for (uint32_t& v : mesh.triangles[t]) v = new_of_old[v];
   });
-  radix_sort(tri_keys, 32, 64);
-  std::vector<Triangle> sorted;
-  resize_huge(sorted, nt);
-  tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) { sorted[t] = mesh.triangles[uint32_t(tri_keys[t])]; });
-  mesh.triangles.swap(sorted);
+  std::vector<uint32_t>().swap(new_of_old);
+  radix_sort_by(mesh.triangles, [](const Triangle& t) { return std::min({t[0], t[1], t[2]}); }, 0,
+                int(std::bit_width(nv - 1)));
 }
 
 }  // namespace meniscus

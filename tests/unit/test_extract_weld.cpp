@@ -48,6 +48,25 @@ TEST(ExtractRadixSort, SortsOnlyTheKeyBitsAndKeepsThePayloadStable) {
   EXPECT_EQ(packed, expected);
 }
 
+TEST(ExtractRadixSort, SortsItemsByTheirKeyStably) {
+  // Items sorted by a key computed from them (as the triangles by their smallest corner), with
+  // many ties: the order must be std::stable_sort's, over several chunks of the sort.
+  struct Item {
+    uint32_t a, b, position;
+  };
+  std::mt19937_64 rng(11);
+  for (std::size_t n : {std::size_t(2), std::size_t(5000), std::size_t(400000)}) {
+    std::vector<Item> items(n);
+    for (std::size_t i = 0; i < n; ++i) items[i] = {uint32_t(rng() % 70000), uint32_t(rng() % 70000), uint32_t(i)};
+    auto key = [](const Item& t) { return std::min(t.a, t.b); };
+    std::vector<Item> expected = items;
+    std::stable_sort(expected.begin(), expected.end(), [&](const Item& x, const Item& y) { return key(x) < key(y); });
+    radix_sort_by(items, key, 0, 17);
+    ASSERT_EQ(items.size(), n);
+    for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(items[i].position, expected[i].position) << n << " items, at " << i;
+  }
+}
+
 TEST(ExtractWeld, CornersOnTheSameEdgeShareOneVertexInKeyOrder) {
   SampleLattice lattice;  // cubic, h = 1
   std::vector<uint64_t> blocks = {pack_coords(0, 0, 0)};

@@ -1,0 +1,66 @@
+// Tests of the spatial renumbering the smoothing runs on (mesh/vertex_order.cpp).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <map>
+#include <tuple>
+
+#include "extract/extract.hpp"
+#include "field/distance_field.hpp"
+#include "mesh/vertex_order.hpp"
+#include "mesh/vertex_order_impl.hpp"
+#include "support/test_support.hpp"
+
+namespace meniscus {
+namespace {
+
+TriangleMesh raw_extraction() {
+  const float d = 0.1f, h = d / 2, r_outer = d;
+  const ParticleSet particles = test::lattice_block(16, 9, 5, d, 0.2f, 7);
+  const HashGrid grid(particles.positions, r_outer);
+  const SampleLattice lattice{SampleLattice::Kind::a15, 2 * h};
+  const float band = r_outer + 2 * h;
+  return extract_surface(distance_field(grid, lattice, band, band_blocks(grid, lattice, band)), r_outer,
+                         Extractor::tiles)
+      .mesh;
+}
+
+// The vertices come in Z order (ties in their old order), each triangle is the same corners in the
+// same rotation, and the triangles are sorted by their smallest new corner, ties in their old
+// order — checked against an independent renumbering built from the positions.
+TEST(VertexOrder, ZOrderedVerticesAndTrianglesByTheirSmallestCornerStably) {
+  TriangleMesh before = raw_extraction();
+  for (std::size_t i = 0; i < before.vertices.size(); ++i) before.normals.push_back({float(i), 0, 0});
+  ASSERT_GT(before.triangles.size(), 20000u);
+  TriangleMesh after = before;
+  reorder_vertices_spatially(after);
+  ASSERT_EQ(after.vertices.size(), before.vertices.size());
+  ASSERT_EQ(after.triangles.size(), before.triangles.size());
+
+  Vec3f lo = before.vertices[0], hi = lo;
+  for (const Vec3f& v : before.vertices) lo = min(lo, v), hi = max(hi, v);
+  const float scale = morton_scale(lo, hi);
+  // The expected order: (Morton key, old index), by a comparison sort.
+  std::vector<uint32_t> old_of_new(before.vertices.size());
+  for (uint32_t i = 0; i < old_of_new.size(); ++i) old_of_new[i] = i;
+  std::stable_sort(old_of_new.begin(), old_of_new.end(), [&](uint32_t a, uint32_t b) {
+    return morton_key(before.vertices[a], lo, scale) < morton_key(before.vertices[b], lo, scale);
+  });
+  std::vector<uint32_t> new_of_old(old_of_new.size());
+  for (uint32_t i = 0; i < old_of_new.size(); ++i) {
+    new_of_old[old_of_new[i]] = i;
+    ASSERT_EQ(after.vertices[i], before.vertices[old_of_new[i]]) << "vertex " << i;
+    ASSERT_EQ(after.normals[i].x, float(old_of_new[i])) << "the normals move with their vertices";
+  }
+  std::vector<Triangle> expected = before.triangles;
+  for (Triangle& t : expected)
+    for (uint32_t& v : t) v = new_of_old[v];
+  std::stable_sort(expected.begin(), expected.end(), [](const Triangle& a, const Triangle& b) {
+    return std::min({a[0], a[1], a[2]}) < std::min({b[0], b[1], b[2]});
+  });
+  EXPECT_TRUE(after.triangles == expected);
+}
+
+}  // namespace
+}  // namespace meniscus

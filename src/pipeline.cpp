@@ -461,6 +461,7 @@ std::string stats_to_json(const Result& result) {
                     {"energy_final", s.smoothing.energy_final},
                     {"relax_halvings", s.smoothing.relax_halvings},
                     {"relax_b_final", s.smoothing.relax_b_final},
+                    {"batches", s.smoothing.batches},
                     {"setup_seconds", s.smoothing.setup_seconds},
                     {"a_sweeps_seconds", s.smoothing.a_sweeps_seconds},
                     {"b_sweeps_seconds", s.smoothing.b_sweeps_seconds}};

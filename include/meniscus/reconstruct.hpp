@@ -23,7 +23,8 @@ struct SmoothingStats {
   double energy_start = 0;   ///< xᵀBx, the surface's bending energy, when the B sweeps start
   double energy_final = 0;   ///< and after the last one (same operator)
   int relax_halvings = 0;    ///< B sweeps redone with half the damping because the energy rose
-  double relax_b_final = 0;  ///< the damping ω of the last B sweep
+  double relax_b_final = 0;  ///< the damping ω of the last B sweep (the smallest over the batches)
+  std::size_t batches = 0;   ///< groups of whole components smoothed one after another (CPU backend)
   // Where the smoothing stage's time went (CPU backend; the CUDA backend reports 0 and times its
   // set-up as stages of its own):
   double setup_seconds = 0;     ///< adjacency, colour classes, renumbering, particle lists, B operator

@@ -7,10 +7,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <limits>
 #include <optional>
 
 #include "common/huge_pages.hpp"
 #include "common/parallel_index.hpp"
+#include "mesh/components.hpp"
 #include "mesh/packed_triangles.hpp"
 #include "smooth/adjacency.hpp"
 #include "smooth/operators.hpp"
@@ -422,28 +424,153 @@ SmoothReport smooth_cached(std::vector<Vec3f>& x, std::vector<Triangle>& triangl
   return report;  // renumbered maps the positions back
 }
 
-/// smooth_cached, with the set-up's time: the whole call (the way back from the renumbering
-/// included) less the sweeps.
+/// The indices i in [0, n) for which keep(i), ascending: counted, then listed, in parallel chunks.
+template <class Keep>
+std::vector<uint32_t> indices_where(std::size_t n, Keep&& keep) {
+  constexpr std::size_t kChunk = std::size_t(1) << 16;
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  std::vector<std::size_t> start(chunks + 1, 0);
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t q) {
+    std::size_t count = 0;
+    for (std::size_t i = q * kChunk, e = std::min(n, i + kChunk); i < e; ++i) count += keep(i) ? 1 : 0;
+    start[q + 1] = count;
+  });
+  for (std::size_t q = 0; q < chunks; ++q) start[q + 1] += start[q];
+  std::vector<uint32_t> out;
+  resize_huge(out, start.back());
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t q) {
+    std::size_t k = start[q];
+    for (std::size_t i = q * kChunk, e = std::min(n, i + kChunk); i < e; ++i)
+      if (keep(i)) out[k++] = uint32_t(i);
+  });
+  return out;
+}
+
+/// The mesh's connected components grouped into batches: `of[v]` is vertex v's batch.
+struct ComponentBatches {
+  std::vector<uint32_t> of;
+  uint32_t count = 0;
+};
+
+/// Whole components, in the order of their smallest vertex (in space, on a mesh numbered in space),
+/// into consecutive batches of at most max(target, the largest component) vertices.
+ComponentBatches component_batches(std::size_t nv, std::span<const Triangle> triangles, std::size_t target) {
+  ComponentBatches batches;
+  std::vector<uint32_t>& of = batches.of;
+  of = component_roots(nv, triangles);
+  // The components numbered in root order, in place: a root comes before the rest of its
+  // component, so a vertex's root already holds the component's number when the vertex is reached.
+  std::vector<std::size_t> size;
+  for (std::size_t v = 0; v < nv; ++v) {
+    const uint32_t root = of[v];
+    if (root == v) {
+      of[v] = uint32_t(size.size());
+      size.push_back(0);
+    } else {
+      of[v] = of[root];
+    }
+    ++size[of[v]];
+  }
+  const std::size_t budget = std::max(target, *std::max_element(size.begin(), size.end()));
+  std::vector<uint32_t> batch_of(size.size());
+  std::size_t filled = 0;
+  for (std::size_t k = 0; k < size.size(); ++k) {
+    if (filled > 0 && filled + size[k] > budget) {
+      ++batches.count;
+      filled = 0;
+    }
+    batch_of[k] = batches.count;
+    filled += size[k];
+  }
+  ++batches.count;
+  parallel_for_index(nv, 4096, [&](std::size_t v) { of[v] = batch_of[of[v]]; });
+  return batches;
+}
+
+/// smooth_cached on batches of whole components (SmoothOptions::batch_vertices), one after another:
+/// the sweeps' arrays (about 140 bytes a vertex) are held for one batch at a time, beside the
+/// mesh, a batch number and a batch index a vertex, and the batch's own copy of its vertices and
+/// triangles. Components do not interact in the sweeps, and a batch numbers its vertices in the
+/// mesh's order, which gives the same colour classes: the positions are those of one call on the
+/// whole mesh, except where the energy guard halves ω (per batch here) or the floor on the vertex
+/// areas (relative to the batch's mean area) applies.
 template <class Cache, class Constraint>
-SmoothReport smooth_timed(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, const Constraint* constraint,
-                          const SmoothOptions& o, const std::function<void(double)>& progress) {
+SmoothReport smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, const Constraint* constraint,
+                            const SmoothOptions& o, const std::function<void(double)>& progress) {
+  constexpr std::size_t kAutoBatches = 8;
+  const std::size_t nv = x.size();
+  const std::size_t target = o.batch_vertices != 0 ? o.batch_vertices : nv / kAutoBatches;
+  if (nv == 0 || o.steps_a + o.steps_b + o.steps_free == 0) return {};
   const auto start = std::chrono::steady_clock::now();
-  SmoothReport r = smooth_cached<Cache>(x, triangles, constraint, o, progress);
-  r.setup_seconds = std::max(seconds_since(start) - r.a_sweeps_seconds - r.b_sweeps_seconds, 0.0);
-  return r;
+  auto whole = [&] {
+    SmoothReport r = smooth_cached<Cache>(x, triangles, constraint, o, progress);
+    r.batches = 1;
+    r.setup_seconds = std::max(seconds_since(start) - r.a_sweeps_seconds - r.b_sweeps_seconds, 0.0);
+    return r;
+  };
+  if (target >= nv) return whole();
+  ComponentBatches batches = component_batches(nv, triangles, target);
+  if (batches.count == 1) {
+    std::vector<uint32_t>().swap(batches.of);
+    return whole();
+  }
+  const bool weighted = o.vertex_relax.size() == nv;
+  SmoothReport total;
+  total.batches = batches.count;
+  total.relax_b_final = std::numeric_limits<double>::infinity();
+  std::vector<uint32_t> local;  // a vertex's index in its batch
+  resize_huge(local, nv);
+  std::size_t done = 0;
+  for (uint32_t b = 0; b < batches.count; ++b) {
+    const std::vector<uint32_t> vertices = indices_where(nv, [&](std::size_t v) { return batches.of[v] == b; });
+    std::vector<Vec3f> xb;
+    std::vector<float> relax;
+    resize_huge(xb, vertices.size());
+    if (weighted) relax.resize(vertices.size());
+    parallel_for_index(vertices.size(), 4096, [&](std::size_t k) {
+      local[vertices[k]] = uint32_t(k);
+      xb[k] = x[vertices[k]];
+      if (weighted) relax[k] = o.vertex_relax[vertices[k]];
+    });
+    std::vector<Triangle> tb;
+    {
+      const std::vector<uint32_t> faces =
+          indices_where(triangles.size(), [&](std::size_t f) { return batches.of[triangles[f][0]] == b; });
+      resize_huge(tb, faces.size());
+      parallel_for_index(faces.size(), 4096, [&](std::size_t k) {
+        for (int c = 0; c < 3; ++c) tb[k][c] = local[triangles[faces[k]][c]];
+      });
+    }
+    SmoothOptions ob = o;
+    if (weighted) ob.vertex_relax = relax;
+    const std::function<void(double)> pb = [&](double f) {
+      if (progress) progress((double(done) + f * double(vertices.size())) / double(nv));
+    };
+    const SmoothReport r = smooth_cached<Cache>(xb, tb, constraint, ob, pb);
+    parallel_for_index(vertices.size(), 4096, [&](std::size_t k) { x[vertices[k]] = xb[k]; });
+    done += vertices.size();
+    total.energy_start += r.energy_start;
+    total.energy_final += r.energy_final;
+    total.relax_halvings += r.relax_halvings;
+    total.relax_b_final = std::min(total.relax_b_final, r.relax_b_final);
+    total.a_sweeps_seconds += r.a_sweeps_seconds;
+    total.b_sweeps_seconds += r.b_sweeps_seconds;
+  }
+  total.setup_seconds = std::max(seconds_since(start) - total.a_sweeps_seconds - total.b_sweeps_seconds, 0.0);
+  return total;
 }
 
 }  // namespace
 
 SmoothReport smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, const ShellConstraint* constraint,
                             const SmoothOptions& o, const std::function<void(double)>& progress) {
-  return smooth_timed<NeighbourCache>(x, triangles, constraint, o, progress);
+  return smooth_batched<NeighbourCache>(x, triangles, constraint, o, progress);
 }
 
 SmoothReport smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles,
                             const EllipsoidConstraint* constraint, const SmoothOptions& o,
                             const std::function<void(double)>& progress) {
-  return smooth_timed<EllipsoidCache>(x, triangles, constraint, o, progress);
+  return smooth_batched<EllipsoidCache>(x, triangles, constraint, o, progress);
 }
 
 }  // namespace meniscus

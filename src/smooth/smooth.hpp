@@ -22,6 +22,12 @@ struct SmoothOptions : SmoothSchedule {
   /// Gauss-Seidel: run the sweeps on the vertices renumbered class by class (smooth.cpp,
   /// SweepLayout) — the same result, faster; false only to test that it is the same.
   bool renumber = true;
+  /// The sweeps run on groups of whole connected components, one group after another, each of
+  /// about this many vertices (a component larger than that is a group of its own); 0: an eighth
+  /// of the mesh. Components do not interact in the sweeps, so the result is the same (the energy
+  /// guard halving ω of a group that diverges, not of the whole mesh); only one group's arrays
+  /// are held at a time. SIZE_MAX: the whole mesh at once.
+  std::size_t batch_vertices = 0;
 };
 
 /// Runs the schedule on `x` (in place). `constraint` may be null (no projection at all).

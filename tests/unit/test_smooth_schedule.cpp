@@ -212,5 +212,69 @@ TEST(SmoothSchedule, AMeshWithoutCornerListsStillGivesBitIdenticalVertices) {
   EXPECT_GT(moved, cone.vertices.size() / 2);
 }
 
+// A pool and droplets (a jittered block and balls of particles apart from it, each its own
+// component): the sweeps on batches of whole components (SmoothOptions::batch_vertices) must give
+// the vertices of one call on the whole mesh, bit for bit (the same colour classes: a batch keeps
+// the mesh's order; rows summed alike), with per-vertex damping too; the reported energies are
+// the batches' sums; and the energy guard, per batch, still steps in and keeps the sweeps finite.
+TEST(SmoothSchedule, BatchesOfWholeComponentsGiveTheWholeMeshsVertices) {
+  const float d = 0.1f, h = d / 2, r_outer = d;
+  Raw raw;
+  raw.particles = test::lattice_block(12, 12, 4, d, 0.2f, 3);
+  for (int k = 0; k < 6; ++k) {  // droplets of a few particles each, a row above the pool
+    const ParticleSet drop = test::lattice_ball(0.12f + 0.03f * float(k % 3), d, {0.2f + 0.2f * float(k), 0.6f, 0.9f});
+    raw.particles.positions.insert(raw.particles.positions.end(), drop.positions.begin(), drop.positions.end());
+  }
+  raw.grid = HashGrid(raw.particles.positions, r_outer);
+  const SampleLattice lattice{SampleLattice::Kind::a15, 2 * h};
+  const float band = r_outer + 2 * h;
+  const SparseField field = distance_field(raw.grid, lattice, band, band_blocks(raw.grid, lattice, band));
+  raw.mesh = extract_surface(field, r_outer, Extractor::tiles).mesh;
+  const std::size_t nv = raw.mesh.vertices.size();
+  const ShellConstraint c{&raw.grid, 0.05f, 0.1f};
+  std::vector<float> damping(nv);
+  for (std::size_t i = 0; i < nv; ++i) damping[i] = 0.5f + 0.5f * float((i * 7919) % 101) / 100.0f;
+  for (const bool weighted : {false, true}) {
+    SmoothOptions o;
+    o.steps_a = 8;
+    o.steps_b = 6;
+    o.steps_free = 2;
+    if (weighted) o.vertex_relax = damping;
+    std::vector<Vec3f> x[2] = {raw.mesh.vertices, raw.mesh.vertices};
+    std::vector<Triangle> t[2] = {raw.mesh.triangles, raw.mesh.triangles};
+    SmoothReport r[2];
+    for (int m = 0; m < 2; ++m) {
+      o.batch_vertices = m == 0 ? SIZE_MAX : nv / 20;
+      r[m] = smooth_surface(x[m], t[m], &c, o);
+    }
+    EXPECT_EQ(r[0].batches, 1u);
+    EXPECT_GE(r[1].batches, 2u) << "the pool alone (a batch is as large as the largest component), the droplets";
+    EXPECT_TRUE(t[1] == raw.mesh.triangles) << "the triangles are left as they were";
+    EXPECT_NEAR(r[1].energy_start, r[0].energy_start, 1e-9 * r[0].energy_start);
+    EXPECT_NEAR(r[1].energy_final, r[0].energy_final, 1e-9 * r[0].energy_final);
+    EXPECT_EQ(r[1].relax_halvings, 0);
+    std::size_t moved = 0;
+    for (std::size_t i = 0; i < nv; ++i) {
+      for (int a = 0; a < 3; ++a)
+        ASSERT_TRUE(test::same_bits(x[0][i][a], x[1][i][a])) << "weighted " << weighted << " vertex " << i;
+      moved += !(x[1][i] == raw.mesh.vertices[i]);
+    }
+    EXPECT_GT(moved, nv / 2);
+  }
+  // ω = 3 diverges: every batch's guard halves it until its sweeps descend.
+  SmoothOptions o;
+  o.steps_a = 4;
+  o.steps_b = 6;
+  o.steps_free = 1;
+  o.relax_b = 3.0f;
+  o.batch_vertices = nv / 20;
+  std::vector<Vec3f> x = raw.mesh.vertices;
+  const SmoothReport r = smooth_surface(x, raw.mesh.triangles, &c, o);
+  EXPECT_GE(r.relax_halvings, int(r.batches));
+  EXPECT_LE(r.relax_b_final, 1.5);
+  EXPECT_LT(r.energy_final, r.energy_start);
+  EXPECT_TRUE(all_finite(x));
+}
+
 }  // namespace
 }  // namespace meniscus

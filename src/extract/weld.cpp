@@ -122,22 +122,10 @@ class SortedKeyIndex {
 
 /// Distinct values of a sorted array, in parallel: count run heads per chunk, prefix-sum, copy.
 std::vector<uint64_t> unique_sorted(const std::vector<uint64_t>& sorted) {
-  constexpr std::size_t kChunk = std::size_t(1) << 16;
-  const std::size_t n = sorted.size(), chunks = (n + kChunk - 1) / kChunk;
   auto is_head = [&](std::size_t i) { return i == 0 || sorted[i] != sorted[i - 1]; };
-  std::vector<std::size_t> offsets(chunks + 1, 0);
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
-    std::size_t heads = 0;
-    for (std::size_t i = c * kChunk, end = std::min(n, i + kChunk); i < end; ++i) heads += is_head(i);
-    offsets[c + 1] = heads;
-  });
-  for (std::size_t c = 0; c < chunks; ++c) offsets[c + 1] += offsets[c];
-  std::vector<uint64_t> unique(offsets.back());
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
-    std::size_t out = offsets[c];
-    for (std::size_t i = c * kChunk, end = std::min(n, i + kChunk); i < end; ++i)
-      if (is_head(i)) unique[out++] = sorted[i];
-  });
+  std::vector<std::size_t> offsets;
+  std::vector<uint64_t> unique(detail::chunk_offsets(sorted.size(), is_head, offsets));
+  detail::for_each_set(sorted.size(), is_head, offsets, [&](std::size_t i, std::size_t k) { unique[k] = sorted[i]; });
   return unique;
 }
 

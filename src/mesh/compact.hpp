@@ -9,6 +9,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "common/huge_pages.hpp"
@@ -20,28 +21,40 @@ namespace detail {
 
 inline constexpr std::size_t kCompactChunk = std::size_t(1) << 15;
 
-/// Per chunk of kCompactChunk flags, the index of its first set flag among all set flags (an
-/// exclusive scan of the chunks' counts, in chunk order); returns the total.
-inline std::size_t chunk_offsets(const std::vector<uint8_t>& flags, std::vector<std::size_t>& offsets) {
-  const std::size_t chunks = (flags.size() + kCompactChunk - 1) / kCompactChunk;
+/// Per chunk of kCompactChunk indices of [0, n), the position of its first index with set(i)
+/// among all such indices (an exclusive scan of the chunks' counts, in chunk order); returns the
+/// total.
+template <class Set>
+std::size_t chunk_offsets(std::size_t n, Set&& set, std::vector<std::size_t>& offsets) {
+  const std::size_t chunks = (n + kCompactChunk - 1) / kCompactChunk;
   offsets.assign(chunks + 1, 0);
   tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
-    std::size_t n = 0;
-    for (std::size_t i = c * kCompactChunk, end = std::min(flags.size(), i + kCompactChunk); i < end; ++i) n += flags[i];
-    offsets[c + 1] = n;
+    std::size_t count = 0;
+    for (std::size_t i = c * kCompactChunk, end = std::min(n, i + kCompactChunk); i < end; ++i) count += set(i) ? 1 : 0;
+    offsets[c + 1] = count;
   });
   for (std::size_t c = 0; c < chunks; ++c) offsets[c + 1] += offsets[c];
   return offsets[chunks];
 }
 
-/// Calls f(i, rank) for every set flag i, rank its position among the set flags; parallel over chunks.
-template <class F>
-void for_each_set(const std::vector<uint8_t>& flags, const std::vector<std::size_t>& offsets, F&& f) {
+/// Calls f(i, rank) for every index i of [0, n) with set(i), rank its position among them;
+/// parallel over the chunks of `offsets` (as chunk_offsets made them for the same n and set).
+template <class Set, class F>
+void for_each_set(std::size_t n, Set&& set, const std::vector<std::size_t>& offsets, F&& f) {
   tbb::parallel_for(std::size_t(0), offsets.size() - 1, [&](std::size_t c) {
     std::size_t rank = offsets[c];
-    for (std::size_t i = c * kCompactChunk, end = std::min(flags.size(), i + kCompactChunk); i < end; ++i)
-      if (flags[i]) f(i, rank++);
+    for (std::size_t i = c * kCompactChunk, end = std::min(n, i + kCompactChunk); i < end; ++i)
+      if (set(i)) f(i, rank++);
   });
+}
+
+/// The flags' versions: index i is set where flags[i] is.
+inline std::size_t chunk_offsets(const std::vector<uint8_t>& flags, std::vector<std::size_t>& offsets) {
+  return chunk_offsets(flags.size(), [&](std::size_t i) { return flags[i] != 0; }, offsets);
+}
+template <class F>
+void for_each_set(const std::vector<uint8_t>& flags, const std::vector<std::size_t>& offsets, F&& f) {
+  for_each_set(flags.size(), [&](std::size_t i) { return flags[i] != 0; }, offsets, std::forward<F>(f));
 }
 
 /// Moves the elements whose flag is set (groups of `per` values, flags.size() groups) to the front

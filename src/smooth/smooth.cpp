@@ -12,6 +12,7 @@
 
 #include "common/huge_pages.hpp"
 #include "common/parallel_index.hpp"
+#include "mesh/compact.hpp"
 #include "mesh/components.hpp"
 #include "mesh/packed_triangles.hpp"
 #include "smooth/adjacency.hpp"
@@ -424,25 +425,14 @@ SmoothReport smooth_cached(std::vector<Vec3f>& x, std::vector<Triangle>& triangl
   return report;  // renumbered maps the positions back
 }
 
-/// The indices i in [0, n) for which keep(i), ascending: counted, then listed, in parallel chunks.
+/// The indices i in [0, n) for which keep(i), ascending (mesh/compact.hpp's parallel count and
+/// listing).
 template <class Keep>
 std::vector<uint32_t> indices_where(std::size_t n, Keep&& keep) {
-  constexpr std::size_t kChunk = std::size_t(1) << 16;
-  const std::size_t chunks = (n + kChunk - 1) / kChunk;
-  std::vector<std::size_t> start(chunks + 1, 0);
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t q) {
-    std::size_t count = 0;
-    for (std::size_t i = q * kChunk, e = std::min(n, i + kChunk); i < e; ++i) count += keep(i) ? 1 : 0;
-    start[q + 1] = count;
-  });
-  for (std::size_t q = 0; q < chunks; ++q) start[q + 1] += start[q];
+  std::vector<std::size_t> offsets;
   std::vector<uint32_t> out;
-  resize_huge(out, start.back());
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t q) {
-    std::size_t k = start[q];
-    for (std::size_t i = q * kChunk, e = std::min(n, i + kChunk); i < e; ++i)
-      if (keep(i)) out[k++] = uint32_t(i);
-  });
+  resize_huge(out, detail::chunk_offsets(n, keep, offsets));
+  detail::for_each_set(n, keep, offsets, [&](std::size_t i, std::size_t k) { out[k] = uint32_t(i); });
   return out;
 }
 

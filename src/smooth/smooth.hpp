@@ -24,16 +24,19 @@ struct SmoothOptions : SmoothSchedule {
   bool renumber = true;
   /// The sweeps run on groups of whole connected components, one group after another, each of
   /// about this many vertices (a component larger than that is a group of its own); 0: an eighth
-  /// of the mesh. Components do not interact in the sweeps, so the result is the same (the energy
-  /// guard halving ω of a group that diverges, not of the whole mesh); only one group's arrays
+  /// of the mesh. Components do not interact in the sweeps, so the result is the same, except
+  /// that the energy guard halves ω of a group that diverges, not of the whole mesh, and the floor
+  /// on collapsed vertices' areas is relative to the group's mean area; only one group's arrays
   /// are held at a time. SIZE_MAX: the whole mesh at once.
   std::size_t batch_vertices = 0;
 };
 
 /// Runs the schedule on `x` (in place). `constraint` may be null (no projection at all).
-/// `progress` receives the completed fraction of all sweeps. The Gauss-Seidel sweeps renumber the
-/// vertices for the duration of the call; the triangles are held packed meanwhile (the vector is
-/// empty during the call); both come back in their own numbering.
+/// `progress` receives the completed fraction of all sweeps. Each group of components (above) is
+/// smoothed on its own copy of its vertices and triangles, or, as one group, on `x` and
+/// `triangles` themselves: the Gauss-Seidel sweeps then renumber the vertices for the duration of
+/// the call and hold the triangles packed meanwhile (the vector is empty during the call). Both
+/// come back in their own numbering.
 SmoothReport smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles,
                             const ShellConstraint* constraint, const SmoothOptions& options,
                             const std::function<void(double)>& progress = {});

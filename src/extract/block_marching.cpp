@@ -36,45 +36,48 @@ void check_key_range(const SparseField& field, Vec3i block) {
   }
 }
 
-/// Merges one block's corners on the same edge, through a table indexed by the edge's base cell
-/// relative to the block and its type (cache-resident, no sort, no hash): the weld then sorts only
-/// the blocks' distinct edges — about a fifth of the corners — and never reads a corner's key.
+/// Merges one block's corners on the same edge, through a table indexed by the edge's code
+/// (BlockEdgeCodes: base cell relative to the block, and type; 64 KB, cache-resident, no sort, no
+/// hash): the weld then sorts only the blocks' distinct edges — about a fifth of the corners — and
+/// never reads a corner's key.
 class BlockWeld {
  public:
   BlockWeld() = default;
-  explicit BlockWeld(int block_cells)
-      : span_(block_cells + 4), entry_(std::size_t(span_) * std::size_t(span_) * std::size_t(span_) * 64, kNotFound) {}
+  explicit BlockWeld(BlockEdgeCodes codes) : codes_(codes), entry_(codes.count(), kUnused) {
+    if (codes.count() > (std::size_t(1) << 16)) throw std::logic_error("march_blocks: block edge codes exceed 16 bits");
+  }
 
-  /// Writes the distinct keys of `keys` to `edges` in first-use order and each key's index among
-  /// them to `corner_edges`; returns how many there are. `origin`: the block's first cell.
-  uint32_t weld(Vec3i origin, std::span<const uint64_t> keys, uint64_t* edges, uint32_t* corner_edges) {
+  /// Writes the codes of the distinct keys of `keys` to `edges` in first-use order and each key's
+  /// index among them to `corner_edges`; returns how many there are. `origin`: the block's first
+  /// cell.
+  uint32_t weld(Vec3i origin, std::span<const uint64_t> keys, uint16_t* edges, uint16_t* corner_edges) {
+    if (keys.size() >= kUnused) throw std::logic_error("march_blocks: a block has too many corners for 16-bit indices");
     const Vec3i base = origin - Vec3i{2, 2, 2};  // base cells run from origin − 2 to origin + n + 1
-    uint32_t count = 0;
+    const int span = codes_.span;
+    uint16_t count = 0;
     for (std::size_t c = 0; c < keys.size(); ++c) {
       const uint64_t key = keys[c];
       const Vec3i l = edge_key_cell(key) - base;
-      if (l.x < 0 || l.y < 0 || l.z < 0 || l.x >= span_ || l.y >= span_ || l.z >= span_)
+      const int type = edge_key_type(key);
+      if (l.x < 0 || l.y < 0 || l.z < 0 || l.x >= span || l.y >= span || l.z >= span || (type >> codes_.type_bits) != 0)
         throw std::logic_error("march_blocks: an edge lies more than 2 cells outside the block that marched it");
-      const std::size_t slot = ((std::size_t(l.z) * std::size_t(span_) + std::size_t(l.y)) * std::size_t(span_) +
-                                std::size_t(l.x)) * 64 + std::size_t(edge_key_type(key));
-      uint32_t e = entry_[slot];
-      if (e == kNotFound) {
+      const uint16_t code = codes_.encode(l, type);
+      uint16_t e = entry_[code];
+      if (e == kUnused) {
         e = count++;
-        entry_[slot] = e;
-        touched_.push_back(uint32_t(slot));
-        edges[e] = key;
+        entry_[code] = e;
+        edges[e] = code;
       }
       corner_edges[c] = e;
     }
-    for (const uint32_t slot : touched_) entry_[slot] = kNotFound;
-    touched_.clear();
+    for (uint16_t e = 0; e < count; ++e) entry_[edges[e]] = kUnused;  // the edges are the touched slots
     return count;
   }
 
  private:
-  int span_ = 0;
-  std::vector<uint32_t> entry_;    // per slot: the edge's index in the block, kNotFound when unused
-  std::vector<uint32_t> touched_;  // the slots to reset after the block
+  static constexpr uint16_t kUnused = 0xFFFF;
+  BlockEdgeCodes codes_;
+  std::vector<uint16_t> entry_;  // per code: the edge's index in the block, kUnused when unused
 };
 
 }  // namespace
@@ -190,6 +193,7 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
   const std::vector<Vec3i> blocks = blocks_to_march(field, cell_masks, full_stencil);
   MarchedCorners out;
   out.block_cells = field.lattice().block_cells();
+  out.codes = BlockEdgeCodes::of(field.lattice());
   const int n = out.block_cells;
   out.origins.resize(blocks.size());
   for (std::size_t b = 0; b < blocks.size(); ++b) out.origins[b] = {blocks[b].x * n, blocks[b].y * n, blocks[b].z * n};
@@ -202,8 +206,8 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
   const std::size_t block_max = 3 * std::size_t(max_triangles_per_cell) * std::size_t(n) * std::size_t(n) * std::size_t(n);
   const std::size_t page_size = std::max<std::size_t>(std::size_t(1) << 20, 8 * block_max);
   struct Writer {
-    std::vector<std::unique_ptr<uint64_t[]>> edge_pages;
-    std::vector<std::unique_ptr<uint32_t[]>> corner_pages;
+    std::vector<std::unique_ptr<uint16_t[]>> edge_pages;
+    std::vector<std::unique_ptr<uint16_t[]>> corner_pages;
     std::size_t edges_used = 0, corners_used = 0;
     std::vector<uint64_t> keys;  // the block's corner keys as its kernel wrote them
     BlockWeld weld;
@@ -211,7 +215,7 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
   tbb::enumerable_thread_specific<Writer> writers([&] {
     Writer w;
     w.keys.resize(block_max);
-    w.weld = BlockWeld(n);
+    w.weld = BlockWeld(out.codes);
     return w;
   });
   out.block_edges.assign(blocks.size(), nullptr);
@@ -229,15 +233,15 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
       const std::size_t corners = 3 * std::size_t(triangles);
       // A block has at most as many distinct edges as corners.
       if (w.edge_pages.empty() || w.edges_used + corners > page_size) {
-        w.edge_pages.push_back(std::make_unique_for_overwrite<uint64_t[]>(page_size));
+        w.edge_pages.push_back(std::make_unique_for_overwrite<uint16_t[]>(page_size));
         w.edges_used = 0;
       }
       if (w.corner_pages.empty() || w.corners_used + corners > page_size) {
-        w.corner_pages.push_back(std::make_unique_for_overwrite<uint32_t[]>(page_size));
+        w.corner_pages.push_back(std::make_unique_for_overwrite<uint16_t[]>(page_size));
         w.corners_used = 0;
       }
-      uint64_t* edges = w.edge_pages.back().get() + w.edges_used;
-      uint32_t* corner_edges = w.corner_pages.back().get() + w.corners_used;
+      uint16_t* edges = w.edge_pages.back().get() + w.edges_used;
+      uint16_t* corner_edges = w.corner_pages.back().get() + w.corners_used;
       const uint32_t count = w.weld.weld(masks.origin, std::span(w.keys.data(), corners), edges, corner_edges);
       out.block_edges[b] = edges;
       out.block_corners[b] = corner_edges;
@@ -263,9 +267,9 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
 std::vector<uint64_t> MarchedCorners::flatten() const {
   std::vector<uint64_t> keys(corner_count());
   tbb::parallel_for(std::size_t(0), block_edges.size(), [&](std::size_t b) {
-    const std::span<const uint64_t> e = edges(b);
+    const std::span<const uint16_t> e = edges(b);
     uint64_t* out = keys.data() + 3 * triangle_offsets[b];
-    for (const uint32_t c : corners(b)) *out++ = e[c];
+    for (const uint16_t c : corners(b)) *out++ = edge_key(b, e[c]);
   });
   return keys;
 }

@@ -11,38 +11,65 @@
 #include <span>
 #include <vector>
 
+#include "extract/edge_key.hpp"
 #include "field/sparse_field.hpp"
 
 namespace meniscus {
 
+/// A block's edges as 16-bit codes: the edge's base cell relative to the block's first cell − 2
+/// (span = block_cells + 4 cells on each axis: a block's edges have base cells within 2 cells of
+/// its own) and its type, ((z · span + y) · span + x) << type_bits | type. The A15 block (4 cells,
+/// 54 edge types) needs 9 + 6 bits, the cubic one (8 cells, 7 types) 11 + 3.
+struct BlockEdgeCodes {
+  int span = 0;
+  int type_bits = 0;
+  static BlockEdgeCodes of(const SampleLattice& lattice) {
+    return {lattice.block_cells() + 4, lattice.kind == SampleLattice::Kind::a15 ? 6 : 3};
+  }
+  /// Number of distinct codes (every code is below it); ≤ 2^16 for both lattices.
+  std::size_t count() const { return (std::size_t(span) * std::size_t(span) * std::size_t(span)) << type_bits; }
+  uint16_t encode(Vec3i local, int type) const {
+    return uint16_t((((local.z * span + local.y) * span + local.x) << type_bits) | type);
+  }
+  /// The edge key of `code` in the block whose first cell is `origin`.
+  uint64_t key(Vec3i origin, uint16_t code) const {
+    const int cell = code >> type_bits;
+    const Vec3i local{cell % span, cell / span % span, cell / span / span};
+    return edge_key(origin - Vec3i{2, 2, 2} + local, code & ((1 << type_bits) - 1));
+  }
+};
+
 /// The marching stages' output, already welded within each block: block b has
 /// triangle_offsets[b + 1] − triangle_offsets[b] triangles (block order is the triangle order of
 /// the mesh) and edge_offsets[b + 1] − edge_offsets[b] distinct edges. block_edges[b] holds those
-/// edges' keys in the order the block's corners first use them, block_corners[b] the index of each
-/// corner's edge among them, 3 per triangle (corner c's key is block_edges[b][block_corners[b][c]]):
-/// both in pages each thread filled as it marched (one pass, no count pass, no copy; the corners'
-/// keys themselves never leave the thread's cache, which the weld's first pass used to read back
-/// from 8 bytes a corner of pages). A block's edges have base cells within 2 cells of its cells
-/// [origins[b], origins[b] + block_cells) on each axis (a tetrahedron reaches one cell beyond its
-/// own, an edge key's base cell one more).
+/// edges' codes (BlockEdgeCodes) in the order the block's corners first use them, block_corners[b]
+/// the index of each corner's edge among them, 3 per triangle (corner c's key is
+/// edge_key(b, block_edges[b][block_corners[b][c]])): both in pages each thread filled as it
+/// marched (one pass, no count pass, no copy; the corners' keys themselves never leave the
+/// thread's cache). Two bytes an edge and two a corner instead of 8 and 4: on splash 1M the pages
+/// held 440 MB at the run's peak, beside the weld's copies of them (bench/RESULTS.md).
 struct MarchedCorners {
-  std::vector<std::unique_ptr<uint64_t[]>> edge_pages;
-  std::vector<std::unique_ptr<uint32_t[]>> corner_pages;
-  std::vector<const uint64_t*> block_edges;    ///< #blocks (null for a block without triangles)
-  std::vector<const uint32_t*> block_corners;  ///< #blocks (null for a block without triangles)
+  std::vector<std::unique_ptr<uint16_t[]>> edge_pages;
+  std::vector<std::unique_ptr<uint16_t[]>> corner_pages;
+  std::vector<const uint16_t*> block_edges;    ///< #blocks (null for a block without triangles)
+  std::vector<const uint16_t*> block_corners;  ///< #blocks (null for a block without triangles)
   std::vector<uint64_t> triangle_offsets;      ///< #blocks + 1
   std::vector<uint64_t> edge_offsets;          ///< #blocks + 1
   std::vector<Vec3i> origins;                  ///< first cell of each marched block
   int block_cells = 0;
+  BlockEdgeCodes codes;
 
   std::size_t corner_count() const { return triangle_offsets.empty() ? 0 : 3 * std::size_t(triangle_offsets.back()); }
   std::size_t edge_count() const { return edge_offsets.empty() ? 0 : std::size_t(edge_offsets.back()); }
-  std::span<const uint64_t> edges(std::size_t b) const {
+  /// Block b's distinct edges, as codes.
+  std::span<const uint16_t> edges(std::size_t b) const {
     return {block_edges[b], std::size_t(edge_offsets[b + 1] - edge_offsets[b])};
   }
-  std::span<const uint32_t> corners(std::size_t b) const {
+  std::span<const uint16_t> corners(std::size_t b) const {
     return {block_corners[b], 3 * std::size_t(triangle_offsets[b + 1] - triangle_offsets[b])};
   }
+  /// The key of one of block b's edge codes.
+  uint64_t edge_key(std::size_t b, uint16_t code) const { return codes.key(origins[b], code); }
   /// Every corner's edge key in block order, in one array (the unwelded form).
   std::vector<uint64_t> flatten() const;
 };

@@ -271,10 +271,11 @@ void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseFiel
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
       const std::size_t base = m.edge_offsets[b];
-      const std::span<const uint64_t> edges = m.edges(b);
-      for (std::size_t e = 0; e < edges.size(); ++e) packed[base + e] = (dense.dense(edges[e]) << index_bits) | (base + e);
+      const std::span<const uint16_t> edges = m.edges(b);
+      for (std::size_t e = 0; e < edges.size(); ++e)
+        packed[base + e] = (dense.dense(m.edge_key(b, edges[e])) << index_bits) | (base + e);
       uint32_t* out = entry_of + 3 * m.triangle_offsets[b];
-      for (const uint32_t c : m.corners(b)) *out++ = c + uint32_t(base);
+      for (const uint16_t c : m.corners(b)) *out++ = c + uint32_t(base);
     }
   });
   m.edge_pages.clear();  // every entry is in `packed` now, every corner in `entry_of`

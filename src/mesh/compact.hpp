@@ -87,6 +87,34 @@ void compact_in_place(std::vector<T>& values, std::size_t per, const std::vector
 
 }  // namespace detail
 
+namespace detail {
+
+/// Compacts the mesh to the triangles with kept[t] and the vertices with used[v] (which must be
+/// every vertex a kept triangle uses), in order; returns the number of triangles dropped.
+inline std::size_t compact_mesh(TriangleMesh& mesh, std::vector<uint8_t>& kept, const std::vector<uint8_t>& used) {
+  const std::size_t nt = mesh.triangles.size(), nv = mesh.vertices.size();
+  std::vector<std::size_t> offsets;
+  const std::size_t new_nt = chunk_offsets(kept, offsets);
+  if (new_nt == nt) return 0;
+  compact_in_place(mesh.triangles, 1, kept, offsets);
+  std::vector<uint8_t>().swap(kept);
+
+  chunk_offsets(used, offsets);
+  std::vector<uint32_t> remap;
+  assign_populated(remap, nv, ~0u);
+  for_each_set(used, offsets, [&](std::size_t v, std::size_t k) { remap[v] = uint32_t(k); });
+  compact_in_place(mesh.vertices, 1, used, offsets);
+  compact_in_place(mesh.normals, 1, used, offsets);
+  for (Attribute& a : mesh.attributes) compact_in_place(a.values, std::size_t(a.components), used, offsets);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, new_nt, 4096), [&](const auto& r) {
+    for (std::size_t t = r.begin(); t != r.end(); ++t)
+      for (uint32_t& v : mesh.triangles[t]) v = remap[v];
+  });
+  return nt - new_nt;
+}
+
+}  // namespace detail
+
 /// Keeps the triangles t with keep(t) (in order), then drops the vertices no kept triangle uses
 /// (in order; normals and per-vertex attributes follow). Parallel and in place, and the result
 /// does not depend on the thread count. Returns the number of triangles dropped (none: the mesh
@@ -104,24 +132,26 @@ std::size_t keep_triangles(TriangleMesh& mesh, Keep&& keep) {
         for (uint32_t v : mesh.triangles[t]) std::atomic_ref<uint8_t>(used[v]).store(1, std::memory_order_relaxed);
       }
   });
-  std::vector<std::size_t> offsets;
-  const std::size_t new_nt = detail::chunk_offsets(kept, offsets);
-  if (new_nt == nt) return 0;
-  detail::compact_in_place(mesh.triangles, 1, kept, offsets);
-  std::vector<uint8_t>().swap(kept);
+  return detail::compact_mesh(mesh, kept, used);
+}
 
-  detail::chunk_offsets(used, offsets);
-  std::vector<uint32_t> remap;
-  assign_populated(remap, nv, ~0u);
-  detail::for_each_set(used, offsets, [&](std::size_t v, std::size_t k) { remap[v] = uint32_t(k); });
-  detail::compact_in_place(mesh.vertices, 1, used, offsets);
-  detail::compact_in_place(mesh.normals, 1, used, offsets);
-  for (Attribute& a : mesh.attributes) detail::compact_in_place(a.values, std::size_t(a.components), used, offsets);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, new_nt, 4096), [&](const auto& r) {
-    for (std::size_t t = r.begin(); t != r.end(); ++t)
-      for (uint32_t& v : mesh.triangles[t]) v = remap[v];
+/// Keeps the vertices v with keep(v) and the triangles whose corners they are, where every
+/// triangle's corners are all kept or all dropped (whole connected components, say) and every
+/// vertex has a triangle: keep_triangles(mesh, keep(t[0])) without the scatter of each kept
+/// triangle's corners (the void removal on splash 1M: 0.15 -> 0.07 s).
+template <class Keep>
+std::size_t keep_vertices(TriangleMesh& mesh, Keep&& keep) {
+  const std::size_t nt = mesh.triangles.size(), nv = mesh.vertices.size();
+  std::vector<uint8_t> kept, used;
+  resize_populated(used, nv);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const auto& r) {
+    for (std::size_t v = r.begin(); v != r.end(); ++v) used[v] = keep(uint32_t(v)) ? 1 : 0;
   });
-  return nt - new_nt;
+  resize_populated(kept, nt);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nt, 4096), [&](const auto& r) {
+    for (std::size_t t = r.begin(); t != r.end(); ++t) kept[t] = used[mesh.triangles[t][0]];
+  });
+  return detail::compact_mesh(mesh, kept, used);
 }
 
 }  // namespace meniscus

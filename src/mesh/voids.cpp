@@ -82,7 +82,7 @@ void drop_components(TriangleMesh& mesh, const std::vector<uint32_t>& root, cons
   std::vector<uint8_t> drop;
   assign_populated(drop, mesh.vertices.size(), uint8_t(0));
   for (uint32_t r : roots) drop[r] = 1;
-  keep_triangles(mesh, [&](const Triangle& t) { return !drop[root[t[0]]]; });
+  keep_vertices(mesh, [&](uint32_t v) { return !drop[root[v]]; });
 }
 
 }  // namespace

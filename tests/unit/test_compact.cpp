@@ -105,5 +105,34 @@ TEST(Compact, DroppingEverythingEmptiesTheMesh) {
   EXPECT_TRUE(m.attributes[0].values.empty());
 }
 
+TEST(Compact, KeepVerticesDropsWholeComponentsAsKeepTrianglesDoes) {
+  // Components of 40 vertices (strips of triangles within each group, in mixed order over the
+  // triangle array), over several chunks; every third component and a run across a chunk edge go.
+  constexpr uint32_t kGroup = 40;
+  const std::size_t groups = 3 * detail::kCompactChunk / kGroup + 7;
+  TriangleMesh original = random_mesh(groups * kGroup, 1, 6);
+  original.triangles.clear();
+  std::mt19937 rng(9);
+  for (uint32_t k = 0; k < 2; ++k)
+    for (std::size_t g = 0; g < groups; ++g)
+      for (uint32_t i = k; i + 2 < kGroup; i += 2) {
+        const uint32_t v = uint32_t(g) * kGroup + i;
+        original.triangles.push_back(rng() % 2 ? Triangle{v, v + 1, v + 2} : Triangle{v + 2, v + 1, v});
+      }
+  auto kept_group = [&](std::size_t g) { return g % 3 != 1 && (g < 800 || g > 900); };
+  TriangleMesh expected = original;
+  const std::size_t dropped = keep_triangles(expected, [&](const Triangle& t) { return kept_group(t[0] / kGroup); });
+  ASSERT_GT(dropped, 0u);
+  for (int threads : {1, 2, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+    TriangleMesh m = original;
+    EXPECT_EQ(keep_vertices(m, [&](uint32_t v) { return kept_group(v / kGroup); }), dropped) << threads;
+    expect_same(m, expected);
+  }
+  TriangleMesh all = original;
+  EXPECT_EQ(keep_vertices(all, [](uint32_t) { return true; }), 0u);
+  expect_same(all, original);
+}
+
 }  // namespace
 }  // namespace meniscus

@@ -84,11 +84,13 @@ class SparseField {
     return value_in(find_block(b), b, cell, s);
   }
   /// value() once the block is known: `index` = find_block(block), block = block_of(cell).
-  float value_in(uint32_t index, Vec3i block, Vec3i cell, int s) const {
-    if (index == kNotFound) return background_;
+  float value_in(uint32_t index, Vec3i block, Vec3i cell, int s) const { return *address_in(index, block, cell, s); }
+  /// Where value_in reads (the background's own storage when the block is not allocated).
+  const float* address_in(uint32_t index, Vec3i block, Vec3i cell, int s) const {
+    if (index == kNotFound) return &background_;
     const int n = lattice_.block_cells();
-    return values_[std::size_t(index) * kBlockSamples +
-                   local_index({cell.x - block.x * n, cell.y - block.y * n, cell.z - block.z * n}, s)];
+    return values_.data() + std::size_t(index) * kBlockSamples +
+           local_index({cell.x - block.x * n, cell.y - block.y * n, cell.z - block.z * n}, s);
   }
 
   std::size_t memory_bytes() const { return values_.size() * 4 + block_keys_.size() * 8 + index_.memory_bytes(); }

@@ -43,9 +43,15 @@ class KeyIndex {
   /// `keys` must be unique and must not contain kNoKey; key i maps to index i.
   explicit KeyIndex(std::span<const uint64_t> keys) { build(keys); }
 
-  void build(std::span<const uint64_t> keys) {
+  /// The number of slots build() allocates for `keys` keys (16 bytes each).
+  static std::size_t capacity_for(std::size_t keys) {
     std::size_t cap = 16;
-    while (cap < keys.size() * 2) cap <<= 1;
+    while (cap < keys * 2) cap <<= 1;
+    return cap;
+  }
+
+  void build(std::span<const uint64_t> keys) {
+    const std::size_t cap = capacity_for(keys.size());
     mask_ = cap - 1;
     slots_.assign(cap, Slot{});
     for (std::size_t i = 0; i < keys.size(); ++i) {

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <set>
 
 #include "grid/hash_grid.hpp"
 #include "meniscus/errors.hpp"
@@ -78,6 +79,40 @@ TEST(HashGrid, RadiusQueryMatchesBruteForce) {
       ++got;
     });
     EXPECT_EQ(got, expected);
+  }
+}
+
+TEST(HashGrid, DenseAndHashedIndexesFindTheSameCells) {
+  // A compact cloud gets the dense index; the same cloud with two far outliers (a box of 10^9
+  // cells) the hash index. Both must give every occupied cell its range, empty cells none, and
+  // radius queries the brute-force answer.
+  const std::vector<Vec3f> compact = random_points(4000, 1.0f, 21);
+  std::vector<Vec3f> spread = compact;
+  spread.push_back({-90.0f, 80.0f, 95.0f});
+  spread.push_back({99.0f, -99.0f, -70.0f});
+  for (const std::vector<Vec3f>* pts : {&compact, static_cast<const std::vector<Vec3f>*>(&spread)}) {
+    const HashGrid grid(*pts, 0.2f);
+    EXPECT_EQ(grid.dense_index(), pts == &compact);
+    std::set<uint64_t> occupied(grid.cell_keys().begin(), grid.cell_keys().end());
+    for (std::size_t c = 0; c < grid.cell_keys().size(); ++c) {
+      const auto [b, e] = grid.cell_range(unpack_coords(grid.cell_keys()[c]));
+      EXPECT_EQ(b, grid.cell_starts()[c]);
+      EXPECT_EQ(e, grid.cell_starts()[c + 1]);
+    }
+    for (int z = -7; z <= 7; ++z)
+      for (int y = -7; y <= 7; ++y)
+        for (int x = -7; x <= 7; ++x)
+          if (!occupied.count(pack_coords(x, y, z))) {
+            const auto [b, e] = grid.cell_range({x, y, z});
+            EXPECT_EQ(b, e) << x << " " << y << " " << z;
+          }
+    for (const Vec3f& q : random_points(50, 1.3f, 22)) {
+      std::size_t expected = 0;
+      for (const Vec3f& p : *pts) expected += length2(p - q) <= 0.3f * 0.3f;
+      std::size_t got = 0;
+      grid.for_each_within(q, 0.3f, [&](uint32_t, float) { ++got; });
+      EXPECT_EQ(got, expected);
+    }
   }
 }
 

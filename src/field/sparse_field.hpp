@@ -70,7 +70,7 @@ class SparseField {
     return ((local_cell.z * n + local_cell.y) * n + local_cell.x) * lattice_.samples_per_cell() + s;
   }
   /// Block index of the block with these block coordinates, or kNotFound.
-  uint32_t find_block(Vec3i block) const { return index_.find(pack_coords(block.x, block.y, block.z)); }
+  uint32_t find_block(Vec3i block) const { return index_.find(block); }
   /// Block coordinates of the block that holds `cell`.
   Vec3i block_of(Vec3i cell) const {
     // Floor division by the block edge (4 or 8 cells, a power of two): an arithmetic shift, which
@@ -99,7 +99,7 @@ class SparseField {
   SampleLattice lattice_;
   std::vector<uint64_t> block_keys_;
   std::vector<float> values_;
-  KeyIndex index_;
+  CellIndex index_;  ///< dense over the blocks' box where that is no larger than a hash
   float background_ = 0;
 };
 

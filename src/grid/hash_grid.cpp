@@ -61,25 +61,7 @@ HashGrid::HashGrid(std::span<const Vec3f> points, float cell_size) : cell_size_(
   }
   cell_starts_.push_back(uint32_t(n));
   std::vector<std::pair<uint64_t, uint32_t>>().swap(keyed);
-
-  const std::size_t nx = std::size_t(cell_max_.x - cell_min_.x) + 1, ny = std::size_t(cell_max_.y - cell_min_.y) + 1,
-                    nz = std::size_t(cell_max_.z - cell_min_.z) + 1;
-  // Dense when its 4 bytes a box cell take no more than the hash index's 16 bytes a slot (about
-  // two slots a cell): box cells ≤ 4 · slots. (Each axis spans < 2^22 cells: no overflow.)
-  const double box_cells = double(nx) * double(ny) * double(nz);
-  if (box_cells <= 4.0 * double(KeyIndex::capacity_for(cells))) {
-    dense_nx_ = nx;
-    dense_ny_ = ny;
-    dense_.assign(nx * ny * nz, kNotFound);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells, 4096), [&](const auto& r) {
-      for (std::size_t c = r.begin(); c != r.end(); ++c) {
-        const Vec3i k = unpack_coords(cell_keys_[c]);
-        dense_[dense_slot(k)] = uint32_t(c);
-      }
-    });
-  } else {
-    index_.build(cell_keys_);
-  }
+  index_.build(cell_keys_);
 }
 
 }  // namespace meniscus

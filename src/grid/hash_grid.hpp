@@ -42,10 +42,7 @@ class HashGrid {
   const Vec3f* points() const { return sorted_.data(); }
   /// [begin, end) into sorted_points() of cell c (empty when unoccupied or out of range).
   std::pair<uint32_t, uint32_t> cell_range(Vec3i c) const {
-    if (c.x < cell_min_.x || c.y < cell_min_.y || c.z < cell_min_.z || c.x > cell_max_.x ||
-        c.y > cell_max_.y || c.z > cell_max_.z)
-      return {0, 0};
-    const uint32_t i = dense_.empty() ? index_.find(pack_coords(c.x, c.y, c.z)) : dense_[dense_slot(c)];
+    const uint32_t i = index_.find(c);  // kNotFound outside the cells' box too
     if (i == kNotFound) return {0, 0};
     return {cell_starts_[i], cell_starts_[i + 1]};
   }
@@ -69,19 +66,12 @@ class HashGrid {
   Nearest nearest(Vec3f p) const { return grid_nearest(*this, p); }
 
   std::size_t memory_bytes() const {
-    return sorted_.size() * (sizeof(Vec3f) + 4) + cell_keys_.size() * 12 + index_.memory_bytes() +
-           dense_.size() * sizeof(uint32_t);
+    return sorted_.size() * (sizeof(Vec3f) + 4) + cell_keys_.size() * 12 + index_.memory_bytes();
   }
-  /// Whether the occupied cells are found through a dense array over the bounding box of the
-  /// cells (where that takes no more memory than the hash index) rather than the hash index.
-  bool dense_index() const { return !dense_.empty(); }
+  /// Whether the occupied cells are found through a dense array (CellIndex) rather than a hash.
+  bool dense_index() const { return index_.dense(); }
 
  private:
-  /// Index into dense_ of a cell within [cell_min_, cell_max_].
-  std::size_t dense_slot(Vec3i c) const {
-    return (std::size_t(c.z - cell_min_.z) * dense_ny_ + std::size_t(c.y - cell_min_.y)) * dense_nx_ +
-           std::size_t(c.x - cell_min_.x);
-  }
 
   float cell_size_ = 1;
   std::vector<Vec3f> sorted_;
@@ -89,13 +79,7 @@ class HashGrid {
   std::vector<uint64_t> cell_keys_;
   std::vector<uint32_t> cell_starts_;
   Vec3i cell_min_{}, cell_max_{-1, -1, -1};
-  // The cells' index: a dense array over the box of the cells (kNotFound where unoccupied) when
-  // it is no larger than the hash index (a block of fluid: a 16th of it), else the hash index. A
-  // dense lookup reads neighbouring entries for neighbouring cells; the hash scatters them (the
-  // distance field's scatter on splash 1M spent a tenth of its time on that one load).
-  std::vector<uint32_t> dense_;
-  std::size_t dense_nx_ = 0, dense_ny_ = 0;
-  KeyIndex index_;
+  CellIndex index_;
 };
 
 }  // namespace meniscus

@@ -1,6 +1,8 @@
 // Tests of the uniform hashed grid against brute force.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <map>
 #include <random>
 #include <set>
 
@@ -114,6 +116,33 @@ TEST(HashGrid, DenseAndHashedIndexesFindTheSameCells) {
       EXPECT_EQ(got, expected);
     }
   }
+}
+
+TEST(CellIndex, DenseAndHashedFindEveryCellAndNoOther) {
+  // A filled slab with holes (dense) and the same with one far cell (hashed), against a map; the
+  // empty index finds nothing.
+  std::vector<uint64_t> slab;
+  for (int z = -3; z <= 2; ++z)
+    for (int y = -5; y <= 5; ++y)
+      for (int x = -4; x <= 6; ++x)
+        if ((x * 7 + y * 3 + z) % 5 != 0) slab.push_back(pack_coords(x, y, z));
+  std::vector<uint64_t> far = slab;
+  far.push_back(pack_coords(900, -800, 700));
+  for (std::vector<uint64_t>* keys : {&slab, &far}) {
+    std::sort(keys->begin(), keys->end());
+    const CellIndex index(*keys);
+    EXPECT_EQ(index.dense(), keys == &slab);
+    std::map<uint64_t, uint32_t> expected;
+    for (std::size_t i = 0; i < keys->size(); ++i) expected[(*keys)[i]] = uint32_t(i);
+    for (int z = -6; z <= 5; ++z)
+      for (int y = -8; y <= 8; ++y)
+        for (int x = -7; x <= 9; ++x) {
+          const auto it = expected.find(pack_coords(x, y, z));
+          EXPECT_EQ(index.find({x, y, z}), it == expected.end() ? kNotFound : it->second) << x << " " << y << " " << z;
+        }
+    EXPECT_EQ(index.find({900, -800, 700}), keys == &far ? uint32_t(keys->size() - 1) : kNotFound);
+  }
+  EXPECT_EQ(CellIndex(std::vector<uint64_t>{}).find({0, 0, 0}), kNotFound);
 }
 
 TEST(HashGrid, RefusesCoordinatesBeyondTheKeyRange) {

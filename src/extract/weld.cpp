@@ -291,12 +291,28 @@ void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseFiel
   resize_populated(packed, entries);
   resize_populated(mesh.triangles, m.corner_count() / 3);
   uint32_t* entry_of = corner_data(mesh.triangles);  // per corner: its global entry, then its vertex
+  // Dense keys are linear in the base cell: an edge's is its block's base cell's (the block's first
+  // cell − 2) plus the offset of its cell within the block's span, looked up by the code's cell,
+  // plus its type — the same key as dense(edge_key(b, code)) without decoding the code by division.
+  const BlockEdgeCodes codes = m.codes;
+  const std::size_t span = std::size_t(codes.span);
+  std::vector<uint64_t> cell_offset(span * span * span);
+  for (std::size_t z = 0; z < span; ++z)
+    for (std::size_t y = 0; y < span; ++y)
+      for (std::size_t x = 0; x < span; ++x) cell_offset[(z * span + y) * span + x] = ((z * dense.ny + y) * dense.nx + x) * 64;
+  const uint16_t type_mask = uint16_t((1u << codes.type_bits) - 1);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
       const std::size_t base = m.edge_offsets[b];
       const std::span<const uint16_t> edges = m.edges(b);
-      for (std::size_t e = 0; e < edges.size(); ++e)
-        packed[base + e] = (dense.dense(m.edge_key(b, edges[e])) << index_bits) | (base + e);
+      if (!edges.empty()) {
+        const uint64_t block_key = dense.dense(edge_key(m.origins[b] - Vec3i{2, 2, 2}, 0));
+        for (std::size_t e = 0; e < edges.size(); ++e) {
+          const uint16_t code = edges[e];
+          const uint64_t key = block_key + cell_offset[code >> codes.type_bits] + (code & type_mask);
+          packed[base + e] = (key << index_bits) | (base + e);
+        }
+      }
       uint32_t* out = entry_of + 3 * m.triangle_offsets[b];
       for (const uint16_t c : m.corners(b)) *out++ = c + uint32_t(base);
     }

@@ -58,4 +58,10 @@ void HeapReuseScope::end() {
 #endif
 }
 
+void give_back_free_heap_pages() {
+#if defined(__GLIBC__)
+  if (g_reuse_between_stages) malloc_trim(0);
+#endif
+}
+
 }  // namespace meniscus

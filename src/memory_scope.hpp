@@ -19,4 +19,9 @@ class HeapReuseScope {
   bool used_ = false;  ///< the policy was on and this scope changed malloc's settings
 };
 
+/// Where reuse_freed_blocks_between_stages() was called: gives the heap's free pages back to the
+/// system now (malloc_trim). For a stage that runs after HeapReuseScope::end() and frees arrays the
+/// scope placed in the heap, so that they do not stay resident beside the stage's new ones.
+void give_back_free_heap_pages();
+
 }  // namespace meniscus

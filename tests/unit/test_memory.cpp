@@ -3,6 +3,7 @@
 // between stages (HeapReuseScope) freed blocks are reused from the heap, then given back.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 
@@ -79,6 +80,45 @@ TEST(Memory, BetweenStagesFreedBlocksAreReusedAndThenGivenBack) {
   ASSERT_NE(after, nullptr);
   EXPECT_GE(mallinfo2().hblkhd, mapped_before + kBlock);
   std::free(after);
+#endif
+}
+
+/// The process's resident set, in bytes (0 where /proc is not there).
+std::size_t resident_bytes() {
+  std::FILE* f = std::fopen("/proc/self/status", "r");
+  if (f == nullptr) return 0;
+  char line[256];
+  std::size_t kb = 0;
+  while (std::fgets(line, sizeof line, f) != nullptr)
+    if (std::strncmp(line, "VmRSS:", 6) == 0) kb = std::strtoull(line + 6, nullptr, 10);
+  std::fclose(f);
+  return kb * 1024;
+}
+
+TEST(Memory, FreeHeapPagesGivenBackInTheMiddleOfTheHeap) {
+#if !defined(__GLIBC__) || defined(MENISCUS_TEST_SANITIZED)
+  GTEST_SKIP() << "glibc's own malloc only (a sanitizer replaces it)";
+#else
+  ASSERT_TRUE(release_large_blocks_eagerly());
+  ASSERT_TRUE(reuse_freed_blocks_between_stages());
+  constexpr std::size_t kBlock = std::size_t(64) << 20;
+  void* volatile block = nullptr;
+  void* volatile above = nullptr;
+  {
+    HeapReuseScope scope;  // a stage's array in the heap, and a later one above it
+    block = std::malloc(kBlock);
+    above = std::malloc(std::size_t(4) << 20);
+    ASSERT_NE(block, nullptr);
+    ASSERT_NE(above, nullptr);
+    std::memset(block, 1, kBlock);
+    std::memset(above, 1, std::size_t(4) << 20);
+  }
+  std::free(block);  // freed after the scope: in the middle of the heap, still resident
+  const std::size_t before = resident_bytes();
+  if (before == 0) GTEST_SKIP() << "no /proc/self/status";
+  give_back_free_heap_pages();
+  EXPECT_LT(resident_bytes() + kBlock / 2, before) << "the freed block's pages leave the resident set";
+  std::free(above);
 #endif
 }
 

@@ -11,7 +11,6 @@ namespace meniscus {
 namespace {
 
 uint64_t zigzag(int64_t v) { return (uint64_t(v) << 1) ^ uint64_t(v >> 63); }
-int64_t unzigzag(uint64_t z) { return int64_t(z >> 1) ^ -int64_t(z & 1); }
 
 std::size_t varint_size(uint64_t z) {
   std::size_t n = 1;
@@ -29,15 +28,6 @@ uint8_t* put_varint(uint8_t* out, uint64_t z) {
   }
   *out++ = uint8_t(z);
   return out;
-}
-
-const uint8_t* get_varint(const uint8_t* in, uint64_t& z) {
-  z = 0;
-  for (int shift = 0;; shift += 7) {
-    const uint8_t b = *in++;
-    z |= uint64_t(b & 0x7f) << shift;
-    if (!(b & 0x80)) return in;
-  }
 }
 
 /// The three integers of triangle t after one whose first corner was `previous`.
@@ -83,18 +73,9 @@ void PackedTriangles::pack(std::vector<Triangle>& triangles) {
 void PackedTriangles::unpack(std::vector<Triangle>& triangles) {
   triangles.clear();
   resize_populated(triangles, count_);
-  const std::size_t blocks = block_begin_.empty() ? 0 : block_begin_.size() - 1;
-  tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
-    const uint8_t* in = bytes_.data() + block_begin_[b];
-    uint32_t previous = 0;
-    const auto [first, last] = block_range(b);
-    for (std::size_t k = first; k < last; ++k) {
-      uint64_t z0, z1, z2;
-      in = get_varint(get_varint(get_varint(in, z0), z1), z2);
-      const uint32_t v0 = uint32_t(int64_t(previous) + unzigzag(z0));
-      triangles[k] = {v0, uint32_t(int64_t(v0) + unzigzag(z1)), uint32_t(int64_t(v0) + unzigzag(z2))};
-      previous = v0;
-    }
+  tbb::parallel_for(std::size_t(0), block_count(), [&](std::size_t b) {
+    std::size_t k = block_range(b).first;
+    decode_block(b, [&](const Triangle& t) { triangles[k++] = t; });
   });
   UninitVector<uint8_t>().swap(bytes_);
   block_begin_.clear();

@@ -2,6 +2,8 @@
 // smoothing sweeps never read the triangles once the operator's corner lists are built).
 #pragma once
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
@@ -31,7 +33,36 @@ class PackedTriangles {
   std::size_t size() const { return count_; }
   std::size_t packed_bytes() const { return bytes_.size(); }
 
+  /// The triangles with keep(triangle), in order, each mapped through map(triangle) — decoded in
+  /// parallel, block by block (twice: to count, then to write), without unpacking the rest.
+  template <class Keep, class Map>
+  std::vector<Triangle> select(Keep&& keep, Map&& map) const;
+
  private:
+  std::size_t block_count() const { return block_begin_.empty() ? 0 : block_begin_.size() - 1; }
+  /// Calls f(triangle) for the triangles of block b, in order.
+  template <class F>
+  void decode_block(std::size_t b, F&& f) const {
+    const uint8_t* in = bytes_.data() + block_begin_[b];
+    uint32_t previous = 0;
+    const auto [first, last] = block_range(b);
+    for (std::size_t k = first; k < last; ++k) {
+      uint64_t z0, z1, z2;
+      in = get_varint(get_varint(get_varint(in, z0), z1), z2);
+      const uint32_t v0 = uint32_t(int64_t(previous) + unzigzag(z0));
+      f(Triangle{v0, uint32_t(int64_t(v0) + unzigzag(z1)), uint32_t(int64_t(v0) + unzigzag(z2))});
+      previous = v0;
+    }
+  }
+  static int64_t unzigzag(uint64_t z) { return int64_t(z >> 1) ^ -int64_t(z & 1); }
+  static const uint8_t* get_varint(const uint8_t* in, uint64_t& z) {
+    z = 0;
+    for (int shift = 0;; shift += 7) {
+      const uint8_t b = *in++;
+      z |= uint64_t(b & 0x7f) << shift;
+      if (!(b & 0x80)) return in;
+    }
+  }
   /// The triangles [first, last) of block b.
   std::pair<std::size_t, std::size_t> block_range(std::size_t b) const {
     return {b * kBlock, std::min(count_, (b + 1) * kBlock)};
@@ -42,5 +73,26 @@ class PackedTriangles {
   UninitVector<uint8_t> bytes_;
   std::vector<std::size_t> block_begin_;  ///< byte offset of each block, and the total at the end
 };
+
+template <class Keep, class Map>
+std::vector<Triangle> PackedTriangles::select(Keep&& keep, Map&& map) const {
+  const std::size_t blocks = block_count();
+  std::vector<std::size_t> start(blocks + 1, 0);
+  tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
+    std::size_t n = 0;
+    decode_block(b, [&](const Triangle& t) { n += keep(t) ? 1 : 0; });
+    start[b + 1] = n;
+  });
+  for (std::size_t b = 0; b < blocks; ++b) start[b + 1] += start[b];
+  std::vector<Triangle> out;
+  resize_huge(out, start[blocks]);
+  tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
+    std::size_t k = start[b];
+    decode_block(b, [&](const Triangle& t) {
+      if (keep(t)) out[k++] = map(t);
+    });
+  });
+  return out;
+}
 
 }  // namespace meniscus

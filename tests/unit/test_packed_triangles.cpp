@@ -32,6 +32,26 @@ TEST(PackedTriangles, RoundTripsAnyIndicesOverManyBlocks) {
   EXPECT_EQ(triangles, expected);
 }
 
+TEST(PackedTriangles, SelectsTheKeptTrianglesInOrderWithoutUnpacking) {
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<uint32_t> any(0, 1u << 20);
+  std::vector<Triangle> triangles(4 * PackedTriangles::kBlock + 333);
+  for (Triangle& t : triangles) t = {any(rng), any(rng), any(rng)};
+  const std::vector<Triangle> original = triangles;
+  auto keep = [](const Triangle& t) { return t[0] % 3 == 1; };
+  auto map = [](const Triangle& t) { return Triangle{t[2], t[0] + 1, t[1]}; };
+  std::vector<Triangle> expected;
+  for (const Triangle& t : original)
+    if (keep(t)) expected.push_back(map(t));
+  PackedTriangles packed;
+  packed.pack(triangles);
+  EXPECT_EQ(packed.select(keep, map), expected);
+  EXPECT_TRUE(packed.select([](const Triangle&) { return false; }, map).empty());
+  EXPECT_TRUE(packed.packed()) << "still packed";
+  packed.unpack(triangles);
+  EXPECT_EQ(triangles, original);
+}
+
 TEST(PackedTriangles, RoundTripsAnEmptyList) {
   std::vector<Triangle> triangles;
   PackedTriangles packed;

@@ -34,11 +34,17 @@ class PackedTriangles {
   std::size_t packed_bytes() const { return bytes_.size(); }
 
   /// The triangles with keep(triangle), in order, each mapped through map(triangle) — decoded in
-  /// parallel, block by block (twice: to count, then to write), without unpacking the rest.
+  /// parallel, block by block (twice: to count, then to write), without unpacking the rest. Only
+  /// the blocks b with search(b) are decoded: the caller vouches that no other block has a
+  /// triangle to keep.
+  template <class Keep, class Map, class Search>
+  std::vector<Triangle> select(Keep&& keep, Map&& map, Search&& search) const;
   template <class Keep, class Map>
-  std::vector<Triangle> select(Keep&& keep, Map&& map) const;
+  std::vector<Triangle> select(Keep&& keep, Map&& map) const {
+    return select(keep, map, [](std::size_t) { return true; });
+  }
 
- private:
+  /// The blocks of kBlock triangles (the last one shorter), and their triangles in order.
   std::size_t block_count() const { return block_begin_.empty() ? 0 : block_begin_.size() - 1; }
   /// Calls f(triangle) for the triangles of block b, in order.
   template <class F>
@@ -54,6 +60,8 @@ class PackedTriangles {
       previous = v0;
     }
   }
+
+ private:
   static int64_t unzigzag(uint64_t z) { return int64_t(z >> 1) ^ -int64_t(z & 1); }
   static const uint8_t* get_varint(const uint8_t* in, uint64_t& z) {
     z = 0;
@@ -74,19 +82,20 @@ class PackedTriangles {
   std::vector<std::size_t> block_begin_;  ///< byte offset of each block, and the total at the end
 };
 
-template <class Keep, class Map>
-std::vector<Triangle> PackedTriangles::select(Keep&& keep, Map&& map) const {
+template <class Keep, class Map, class Search>
+std::vector<Triangle> PackedTriangles::select(Keep&& keep, Map&& map, Search&& search) const {
   const std::size_t blocks = block_count();
   std::vector<std::size_t> start(blocks + 1, 0);
   tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
     std::size_t n = 0;
-    decode_block(b, [&](const Triangle& t) { n += keep(t) ? 1 : 0; });
+    if (search(b)) decode_block(b, [&](const Triangle& t) { n += keep(t) ? 1 : 0; });
     start[b + 1] = n;
   });
   for (std::size_t b = 0; b < blocks; ++b) start[b + 1] += start[b];
   std::vector<Triangle> out;
   resize_huge(out, start[blocks]);
   tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
+    if (start[b + 1] == start[b]) return;
     std::size_t k = start[b];
     decode_block(b, [&](const Triangle& t) {
       if (keep(t)) out[k++] = map(t);

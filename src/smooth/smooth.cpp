@@ -511,6 +511,18 @@ SmoothReport smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& triang
   // run; each batch decodes its own from them.
   TrianglesPackedAway mesh_triangles(triangles);
   mesh_triangles.pack();
+  // The batches each packed block has triangles of (a block is a run of triangles of a mesh
+  // numbered in space: one or two batches), so that a batch decodes only its own blocks.
+  const PackedTriangles& packed = mesh_triangles.packed();
+  std::vector<std::pair<uint32_t, uint32_t>> block_batches(packed.block_count());
+  tbb::parallel_for(std::size_t(0), packed.block_count(), [&](std::size_t k) {
+    uint32_t lo = UINT32_MAX, hi = 0;
+    packed.decode_block(k, [&](const Triangle& t) {
+      lo = std::min(lo, batches.of[t[0]]);
+      hi = std::max(hi, batches.of[t[0]]);
+    });
+    block_batches[k] = {lo, hi};
+  });
   SmoothReport total;
   total.batches = batches.count;
   total.relax_b_final = std::numeric_limits<double>::infinity();
@@ -528,9 +540,10 @@ SmoothReport smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& triang
       xb[k] = x[vertices[k]];
       if (weighted) relax[k] = o.vertex_relax[vertices[k]];
     });
-    std::vector<Triangle> tb = mesh_triangles.packed().select(
+    std::vector<Triangle> tb = packed.select(
         [&](const Triangle& t) { return batches.of[t[0]] == b; },
-        [&](const Triangle& t) { return Triangle{local[t[0]], local[t[1]], local[t[2]]}; });
+        [&](const Triangle& t) { return Triangle{local[t[0]], local[t[1]], local[t[2]]}; },
+        [&](std::size_t k) { return block_batches[k].first <= b && b <= block_batches[k].second; });
     SmoothOptions ob = o;
     if (weighted) ob.vertex_relax = relax;
     const std::function<void(double)> pb = [&](double f) {

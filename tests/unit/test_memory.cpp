@@ -84,7 +84,7 @@ TEST(Memory, BetweenStagesFreedBlocksAreReusedAndThenGivenBack) {
 }
 
 /// The process's resident set, in bytes (0 where /proc is not there).
-std::size_t resident_bytes() {
+[[maybe_unused]] std::size_t resident_bytes() {
   std::FILE* f = std::fopen("/proc/self/status", "r");
   if (f == nullptr) return 0;
   char line[256];

@@ -37,6 +37,8 @@ TEST(PackedTriangles, SelectsTheKeptTrianglesInOrderWithoutUnpacking) {
   std::uniform_int_distribution<uint32_t> any(0, 1u << 20);
   std::vector<Triangle> triangles(4 * PackedTriangles::kBlock + 333);
   for (Triangle& t : triangles) t = {any(rng), any(rng), any(rng)};
+  // Block 1 has no triangle to keep: a search that skips it gives the same list.
+  for (std::size_t k = PackedTriangles::kBlock; k < 2 * PackedTriangles::kBlock; ++k) triangles[k][0] -= triangles[k][0] % 3;
   const std::vector<Triangle> original = triangles;
   auto keep = [](const Triangle& t) { return t[0] % 3 == 1; };
   auto map = [](const Triangle& t) { return Triangle{t[2], t[0] + 1, t[1]}; };
@@ -46,6 +48,12 @@ TEST(PackedTriangles, SelectsTheKeptTrianglesInOrderWithoutUnpacking) {
   PackedTriangles packed;
   packed.pack(triangles);
   EXPECT_EQ(packed.select(keep, map), expected);
+  ASSERT_EQ(packed.block_count(), 5u);
+  EXPECT_EQ(packed.select(keep, map, [](std::size_t b) { return b != 1; }), expected);
+  std::vector<Triangle> without_block_3;  // a search that skips a block with kept triangles drops them
+  for (std::size_t k = 0; k < original.size(); ++k)
+    if (keep(original[k]) && k / PackedTriangles::kBlock != 3) without_block_3.push_back(map(original[k]));
+  EXPECT_EQ(packed.select(keep, map, [](std::size_t b) { return b != 3; }), without_block_3);
   EXPECT_TRUE(packed.select([](const Triangle&) { return false; }, map).empty());
   EXPECT_TRUE(packed.packed()) << "still packed";
   packed.unpack(triangles);

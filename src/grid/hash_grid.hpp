@@ -72,7 +72,6 @@ class HashGrid {
   bool dense_index() const { return index_.dense(); }
 
  private:
-
   float cell_size_ = 1;
   std::vector<Vec3f> sorted_;
   std::vector<uint32_t> order_;

@@ -85,10 +85,6 @@ void compact_in_place(std::vector<T>& values, std::size_t per, const std::vector
   values.resize(offsets[chunks] * per);
 }
 
-}  // namespace detail
-
-namespace detail {
-
 /// Compacts the mesh to the triangles with kept[t] and the vertices with used[v] (which must be
 /// every vertex a kept triangle uses), in order; returns the number of triangles dropped.
 inline std::size_t compact_mesh(TriangleMesh& mesh, std::vector<uint8_t>& kept, const std::vector<uint8_t>& used) {
@@ -138,7 +134,8 @@ std::size_t keep_triangles(TriangleMesh& mesh, Keep&& keep) {
 /// Keeps the vertices v with keep(v) and the triangles whose corners they are, where every
 /// triangle's corners are all kept or all dropped (whole connected components, say) and every
 /// vertex has a triangle: keep_triangles(mesh, keep(t[0])) without the scatter of each kept
-/// triangle's corners (the void removal on splash 1M: 0.15 -> 0.07 s).
+/// triangle's corners (0.07 of the 0.15 s the void removal's drop took on splash 1M; the stage
+/// 0.35 -> 0.32 s).
 template <class Keep>
 std::size_t keep_vertices(TriangleMesh& mesh, Keep&& keep) {
   const std::size_t nt = mesh.triangles.size(), nv = mesh.vertices.size();

@@ -482,10 +482,10 @@ ComponentBatches component_batches(std::size_t nv, std::span<const Triangle> tri
 /// the sweeps' arrays (about 140 bytes a vertex) are held for one batch at a time, beside the
 /// mesh's positions and packed triangles (PackedTriangles: ~7 bytes a vertex instead of 24; each
 /// batch decodes its own), a batch number and a batch index a vertex, and the batch's own copy of
-/// its vertices and triangles. Components do not interact in the sweeps, and a batch numbers its vertices in the
-/// mesh's order, which gives the same colour classes: the positions are those of one call on the
-/// whole mesh, except where the energy guard halves ω (per batch here) or the floor on the vertex
-/// areas (relative to the batch's mean area) applies.
+/// its vertices and triangles. Components do not interact in the sweeps, and a batch numbers its
+/// vertices in the mesh's order, which gives the same colour classes: the positions are those of
+/// one call on the whole mesh, except where the energy guard halves ω (per batch here) or the
+/// floor on the vertex areas (relative to the batch's mean area) applies.
 template <class Cache, class Constraint>
 SmoothReport smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, const Constraint* constraint,
                             const SmoothOptions& o, const std::function<void(double)>& progress) {

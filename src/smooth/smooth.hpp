@@ -34,9 +34,10 @@ struct SmoothOptions : SmoothSchedule {
 /// Runs the schedule on `x` (in place). `constraint` may be null (no projection at all).
 /// `progress` receives the completed fraction of all sweeps. Each group of components (above) is
 /// smoothed on its own copy of its vertices and triangles, or, as one group, on `x` and
-/// `triangles` themselves: the Gauss-Seidel sweeps then renumber the vertices for the duration of
-/// the call and hold the triangles packed meanwhile (the vector is empty during the call). Both
-/// come back in their own numbering.
+/// `triangles` themselves, where the Gauss-Seidel sweeps renumber the vertices for the duration of
+/// the call. Either way the triangles are held packed meanwhile (the vector is empty during the
+/// call; a whole-mesh group with a vertex of over kMaxCornerRow neighbours keeps them, renumbered);
+/// both come back in their own numbering.
 SmoothReport smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles,
                             const ShellConstraint* constraint, const SmoothOptions& options,
                             const std::function<void(double)>& progress = {});

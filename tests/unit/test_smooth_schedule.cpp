@@ -2,6 +2,7 @@
 // constraint projection after every constrained sweep.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "extract/extract.hpp"
@@ -217,19 +218,49 @@ TEST(SmoothSchedule, AMeshWithoutCornerListsStillGivesBitIdenticalVertices) {
 // the vertices of one call on the whole mesh, bit for bit (the same colour classes: a batch keeps
 // the mesh's order; rows summed alike), with per-vertex damping too; the reported energies are
 // the batches' sums; and the energy guard, per batch, still steps in and keeps the sweeps finite.
-TEST(SmoothSchedule, BatchesOfWholeComponentsGiveTheWholeMeshsVertices) {
+/// The extraction of `particles` (d = 0.1, r_outer = d) with its grid.
+Raw raw_of(ParticleSet particles) {
   const float d = 0.1f, h = d / 2, r_outer = d;
   Raw raw;
-  raw.particles = test::lattice_block(12, 12, 4, d, 0.2f, 3);
-  for (int k = 0; k < 6; ++k) {  // droplets of a few particles each, a row above the pool
-    const ParticleSet drop = test::lattice_ball(0.12f + 0.03f * float(k % 3), d, {0.2f + 0.2f * float(k), 0.6f, 0.9f});
-    raw.particles.positions.insert(raw.particles.positions.end(), drop.positions.begin(), drop.positions.end());
-  }
+  raw.particles = std::move(particles);
   raw.grid = HashGrid(raw.particles.positions, r_outer);
   const SampleLattice lattice{SampleLattice::Kind::a15, 2 * h};
   const float band = r_outer + 2 * h;
   const SparseField field = distance_field(raw.grid, lattice, band, band_blocks(raw.grid, lattice, band));
   raw.mesh = extract_surface(field, r_outer, Extractor::tiles).mesh;
+  return raw;
+}
+
+/// A jittered pool and, a row above it, `drops` droplets of a few particles each.
+Raw raw_pool_and_drops(int drops) {
+  const float d = 0.1f;
+  ParticleSet particles = test::lattice_block(12, 12, 4, d, 0.2f, 3);
+  for (int k = 0; k < drops; ++k) {
+    const ParticleSet drop = test::lattice_ball(0.12f + 0.03f * float(k % 3), d, {0.2f + 0.2f * float(k), 0.6f, 0.9f});
+    particles.positions.insert(particles.positions.end(), drop.positions.begin(), drop.positions.end());
+  }
+  return raw_of(std::move(particles));
+}
+
+/// The vertex count of the largest connected component (a union-find of its own).
+std::size_t largest_component(const TriangleMesh& mesh) {
+  std::vector<uint32_t> parent(mesh.vertices.size());
+  for (uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
+  auto find = [&](uint32_t v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  for (const Triangle& t : mesh.triangles) {
+    parent[find(t[1])] = find(t[0]);
+    parent[find(t[2])] = find(t[0]);
+  }
+  std::vector<std::size_t> size(parent.size(), 0);
+  for (uint32_t i = 0; i < parent.size(); ++i) ++size[find(i)];
+  return *std::max_element(size.begin(), size.end());
+}
+
+TEST(SmoothSchedule, BatchesOfWholeComponentsGiveTheWholeMeshsVertices) {
+  const Raw raw = raw_pool_and_drops(6);
   const std::size_t nv = raw.mesh.vertices.size();
   const ShellConstraint c{&raw.grid, 0.05f, 0.1f};
   std::vector<float> damping(nv);
@@ -269,11 +300,47 @@ TEST(SmoothSchedule, BatchesOfWholeComponentsGiveTheWholeMeshsVertices) {
   o.relax_b = 3.0f;
   o.batch_vertices = nv / 20;
   std::vector<Vec3f> x = raw.mesh.vertices;
-  const SmoothReport r = smooth_surface(x, raw.mesh.triangles, &c, o);
+  std::vector<Triangle> triangles = raw.mesh.triangles;
+  const SmoothReport r = smooth_surface(x, triangles, &c, o);
   EXPECT_GE(r.relax_halvings, int(r.batches));
   EXPECT_LE(r.relax_b_final, 1.5);
   EXPECT_LT(r.energy_final, r.energy_start);
   EXPECT_TRUE(all_finite(x));
+}
+
+// Left to choose (batch_vertices 0), the smoothing batches a mesh only where that lowers its
+// peak: not when one component holds over 3/4 of the vertices (the batches' arrays over the whole
+// mesh would cost more than the smaller sweeps save), but a mesh of many like components, yes.
+TEST(SmoothSchedule, AutomaticBatchesOnlyWhereNoComponentDominates) {
+  SmoothOptions o;
+  o.steps_a = 2;
+  o.steps_b = 2;
+  o.steps_free = 0;
+  const Raw pool = raw_pool_and_drops(2);
+  ASSERT_GT(largest_component(pool.mesh) * 4, pool.mesh.vertices.size() * 3);
+  ParticleSet balls;
+  for (int k = 0; k < 12; ++k) {
+    const ParticleSet ball = test::lattice_ball(0.25f, 0.1f, {float(k % 4), float(k / 4), 0.0f});
+    balls.positions.insert(balls.positions.end(), ball.positions.begin(), ball.positions.end());
+  }
+  const Raw apart = raw_of(std::move(balls));
+  ASSERT_LE(largest_component(apart.mesh) * 8, apart.mesh.vertices.size()) << "12 like balls";
+  for (const Raw* raw : {&pool, &apart}) {
+    const ShellConstraint c{&raw->grid, 0.05f, 0.1f};
+    std::vector<Vec3f> x = raw->mesh.vertices;
+    std::vector<Triangle> t = raw->mesh.triangles;
+    o.batch_vertices = 0;
+    const SmoothReport automatic = smooth_surface(x, t, &c, o);
+    if (raw == &pool) {
+      EXPECT_EQ(automatic.batches, 1u) << "one component of over 3/4: the whole mesh at once";
+      x = raw->mesh.vertices;
+      t = raw->mesh.triangles;
+      o.batch_vertices = raw->mesh.vertices.size() / 20;
+      EXPECT_GE(smooth_surface(x, t, &c, o).batches, 2u) << "a batch size given is kept";
+    } else {
+      EXPECT_GE(automatic.batches, 4u) << "twelve like components: about an eighth of the mesh each";
+    }
+  }
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 
 #include "common/huge_pages.hpp"
 #include "meniscus/mesh.hpp"
+#include "smooth/compact_neighbors.hpp"
 #include "smooth/operators_impl.hpp"
 
 namespace meniscus {
@@ -25,10 +26,27 @@ struct Adjacency {
   /// triangle's other two corners: corners[corner_offsets[i] .. corner_offsets[i+1]) for vertex i.
   UninitVector<uint32_t> corner_offsets;
   UninitVector<CornerSlots> corners;
+  /// Empty, or (compact_neighbors) the neighbours in 16-bit form, `neighbors` then freed.
+  CompactNeighborLists compact;
 
   std::size_t vertex_count() const { return offsets.empty() ? 0 : offsets.size() - 1; }
+  std::size_t entry_count() const { return offsets.empty() ? 0 : offsets.back(); }
+  /// Row i (not once compacted).
   std::span<const uint32_t> row(uint32_t i) const {
     return {neighbors.data() + offsets[i], offsets[i + 1] - offsets[i]};
+  }
+  /// Replaces `neighbors` by their 16-bit form for good (compact_neighbor_lists: 2 bytes an entry
+  /// instead of 4); the row functions of operators_impl.hpp read either (with_neighbors).
+  void compact_neighbors() {
+    compact = compact_neighbor_lists(offsets, neighbors);
+    UninitVector<uint32_t>().swap(neighbors);
+  }
+  /// f(neighbours) with the neighbour lists in the form the row functions of operators_impl.hpp
+  /// take (neighbor_at): the CSR array, or its compact view. f is instantiated for both.
+  template <class F>
+  decltype(auto) with_neighbors(F&& f) const {
+    if (!compact.empty()) return f(compact.view());
+    return f(static_cast<const uint32_t*>(neighbors.data()));
   }
 };
 

@@ -41,7 +41,7 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
   const std::size_t nv = adj.vertex_count();
   CotanOperator op;
   // Every entry is written below, first by the parallel passes (no serial zeroing).
-  resize_huge(op.w, adj.neighbors.size());
+  resize_huge(op.w, adj.entry_count());
   resize_huge(op.diag, nv);
   resize_huge(op.area, nv);
   resize_huge(op.b_diag, nv);
@@ -54,11 +54,14 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
     });
   };
   if (!adj.corner_offsets.empty()) {
-    for_each_row([&](uint32_t i, float* diag, float* area) {
-      cotan_row_corners(adj.offsets.data(), adj.neighbors.data(), adj.corner_offsets.data(), adj.corners.data(),
-                        x.data(), i, op.w.data(), diag, area);
+    adj.with_neighbors([&](const auto& neighbors) {
+      for_each_row([&](uint32_t i, float* diag, float* area) {
+        cotan_row_corners(adj.offsets.data(), neighbors, adj.corner_offsets.data(), adj.corners.data(), x.data(), i,
+                          op.w.data(), diag, area);
+      });
     });
   } else {
+    // (An adjacency is compacted only once it has corner lists.)
     const MeshRows rows{adj.offsets.data(), adj.neighbors.data(), adj.tri_offsets.data(), adj.tri_ids.data(),
                         triangles.empty() ? nullptr : triangles.data()->data(),
                         adj.tri_row.empty() ? nullptr : adj.tri_row.data()};
@@ -71,18 +74,22 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
   mean_area /= double(std::max<std::size_t>(nv, 1));
   const float area_floor = float(std::max(mean_area * 1e-6, 1e-30));
   parallel_for_index(nv, 16384, [&](std::size_t i) { op.area[i] = std::max(op.area[i], area_floor); });
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i)
-      op.b_diag[i] = bilaplacian_diagonal_row(adj.offsets.data(), adj.neighbors.data(), op.w.data(), op.diag.data(),
-                                              op.area.data(), uint32_t(i));
+  adj.with_neighbors([&](const auto& neighbors) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const auto& r) {
+      for (std::size_t i = r.begin(); i != r.end(); ++i)
+        op.b_diag[i] = bilaplacian_diagonal_row(adj.offsets.data(), neighbors, op.w.data(), op.diag.data(),
+                                                op.area.data(), uint32_t(i));
+    });
   });
   return op;
 }
 
 void apply_w(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> x, std::span<Vec3f> y) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 2048), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i)
-      y[i] = apply_w_row(adj.offsets.data(), adj.neighbors.data(), op.w.data(), op.diag.data(), x.data(), uint32_t(i));
+  adj.with_neighbors([&](const auto& neighbors) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 2048), [&](const auto& r) {
+      for (std::size_t i = r.begin(); i != r.end(); ++i)
+        y[i] = apply_w_row(adj.offsets.data(), neighbors, op.w.data(), op.diag.data(), x.data(), uint32_t(i));
+    });
   });
 }
 
@@ -94,17 +101,19 @@ double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx, st
 }
 
 Vec3f bilaplacian_row(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> x, uint32_t i) {
-  auto wx = [&](uint32_t k) {
-    Vec3f acc = x[k] * op.diag[k];
-    for (uint32_t e = adj.offsets[k]; e < adj.offsets[k + 1]; ++e) acc += x[adj.neighbors[e]] * op.w[e];
-    return acc;
-  };
-  Vec3f out = wx(i) * (op.diag[i] / op.area[i]);
-  for (uint32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) {
-    const uint32_t k = adj.neighbors[e];
-    out += wx(k) * (op.w[e] / op.area[k]);
-  }
-  return out;
+  return adj.with_neighbors([&](const auto& neighbors) {
+    auto wx = [&](uint32_t k) {
+      Vec3f acc = x[k] * op.diag[k];
+      for (uint32_t e = adj.offsets[k]; e < adj.offsets[k + 1]; ++e) acc += x[neighbor_at(neighbors, k, e)] * op.w[e];
+      return acc;
+    };
+    Vec3f out = wx(i) * (op.diag[i] / op.area[i]);
+    for (uint32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) {
+      const uint32_t k = neighbor_at(neighbors, i, e);
+      out += wx(k) * (op.w[e] / op.area[k]);
+    }
+    return out;
+  });
 }
 
 }  // namespace meniscus

@@ -34,11 +34,13 @@ void apply_w(const Adjacency& adjacency, const CotanOperator& op, std::span<cons
 /// operators_impl.hpp; in the original numbering of renumbered vertices given their `rank`.
 double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx, std::span<const uint32_t> rank = {});
 
-/// (B x)_i for one vertex given wx = W x: Σ_k W_ik / D_k (W x)_k over i and its ring.
-inline Vec3f bilaplacian_row_from_wx(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> wx,
-                                     uint32_t i) {
-  return bilaplacian_row_from_wx(adj.offsets.data(), adj.neighbors.data(), op.w.data(), op.diag.data(),
-                                 op.area.data(), wx.data(), i);
+/// (B x)_i for one vertex given wx = W x: Σ_k W_ik / D_k (W x)_k over i and its ring; `neighbors`
+/// as Adjacency::with_neighbors gives them.
+template <class Neighbors>
+Vec3f bilaplacian_row_from_wx(const Adjacency& adj, const Neighbors& neighbors, const CotanOperator& op,
+                              std::span<const Vec3f> wx, uint32_t i) {
+  return bilaplacian_row_from_wx(adj.offsets.data(), neighbors, op.w.data(), op.diag.data(), op.area.data(),
+                                 wx.data(), i);
 }
 
 /// (B x)_i for one vertex from the current x (two rings).

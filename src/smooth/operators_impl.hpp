@@ -25,30 +25,38 @@ struct MeshRows {
   const uint32_t* tri_row = nullptr;  ///< renumbered vertices: their lists' old index
 };
 
+/// The row functions below read the neighbour of entry e of row i as neighbor_at(neighbors, i, e):
+/// `neighbors` is the CSR column array (here; the CUDA backend's) or, on the CPU, the sweeps'
+/// 16-bit form (CompactNeighbors, smooth/compact_neighbors.hpp), found by argument-dependent lookup.
+MENISCUS_HD inline uint32_t neighbor_at(const uint32_t* neighbors, uint32_t /*row*/, uint32_t e) { return neighbors[e]; }
+
 /// Mean of i's neighbours (x_i itself for an isolated vertex).
-MENISCUS_HD inline Vec3f neighbour_mean_row(const uint32_t* offsets, const uint32_t* neighbors, const Vec3f* x,
+template <class Neighbors>
+MENISCUS_HD inline Vec3f neighbour_mean_row(const uint32_t* offsets, const Neighbors& neighbors, const Vec3f* x,
                                             uint32_t i) {
   const uint32_t b = offsets[i], e = offsets[i + 1];
   if (b == e) return x[i];
   Vec3f sum{0, 0, 0};
-  for (uint32_t k = b; k < e; ++k) sum += x[neighbors[k]];
+  for (uint32_t k = b; k < e; ++k) sum += x[neighbor_at(neighbors, i, k)];
   return sum / float(e - b);
 }
 
 /// (W x)_i = W_ii x_i + Σ_j W_ij x_j.
-MENISCUS_HD inline Vec3f apply_w_row(const uint32_t* offsets, const uint32_t* neighbors, const float* w,
+template <class Neighbors>
+MENISCUS_HD inline Vec3f apply_w_row(const uint32_t* offsets, const Neighbors& neighbors, const float* w,
                                      const float* diag, const Vec3f* x, uint32_t i) {
   Vec3f acc = x[i] * diag[i];
-  for (uint32_t k = offsets[i]; k < offsets[i + 1]; ++k) acc += x[neighbors[k]] * w[k];
+  for (uint32_t k = offsets[i]; k < offsets[i + 1]; ++k) acc += x[neighbor_at(neighbors, i, k)] * w[k];
   return acc;
 }
 
 /// (B x)_i given wx = W x: Σ_k W_ik / D_k (W x)_k over i and its ring.
-MENISCUS_HD inline Vec3f bilaplacian_row_from_wx(const uint32_t* offsets, const uint32_t* neighbors, const float* w,
+template <class Neighbors>
+MENISCUS_HD inline Vec3f bilaplacian_row_from_wx(const uint32_t* offsets, const Neighbors& neighbors, const float* w,
                                                  const float* diag, const float* area, const Vec3f* wx, uint32_t i) {
   Vec3f out = wx[i] * (diag[i] / area[i]);
   for (uint32_t e = offsets[i]; e < offsets[i + 1]; ++e) {
-    const uint32_t k = neighbors[e];
+    const uint32_t k = neighbor_at(neighbors, i, e);
     out += wx[k] * (w[e] / area[k]);
   }
   return out;
@@ -130,7 +138,8 @@ inline constexpr uint32_t kMaxCornerRow = 0xfe;
 
 /// Row i of W from its corner lists: incident triangles corners[corner_offsets[i] ..
 /// corner_offsets[i+1]), in the order of MeshRows' lists — the same row as cotan_row there.
-MENISCUS_HD inline void cotan_row_corners(const uint32_t* offsets, const uint32_t* neighbors,
+template <class Neighbors>
+MENISCUS_HD inline void cotan_row_corners(const uint32_t* offsets, const Neighbors& neighbors,
                                           const uint32_t* corner_offsets, const CornerSlots* corners, const Vec3f* x,
                                           uint32_t i, float* w, float* diag, float* area) {
   const uint32_t row_begin = offsets[i], row_end = offsets[i + 1];
@@ -140,7 +149,7 @@ MENISCUS_HD inline void cotan_row_corners(const uint32_t* offsets, const uint32_
       v = i;
       return kNoSlot;
     }
-    v = neighbors[row_begin + slot];
+    v = neighbor_at(neighbors, i, row_begin + slot);
     return uint32_t(slot);
   };
   cotan_row_from(row_begin, row_end, corner_offsets[i + 1] - corner_offsets[i], [&](uint32_t k) {
@@ -152,12 +161,13 @@ MENISCUS_HD inline void cotan_row_corners(const uint32_t* offsets, const uint32_
 }
 
 /// B_ii = W_ii² / D_i + Σ_k W_ik² / D_k; a unit diagonal for an isolated or broken row.
-MENISCUS_HD inline float bilaplacian_diagonal_row(const uint32_t* offsets, const uint32_t* neighbors, const float* w,
+template <class Neighbors>
+MENISCUS_HD inline float bilaplacian_diagonal_row(const uint32_t* offsets, const Neighbors& neighbors, const float* w,
                                                   const float* diag, const float* area, uint32_t i) {
   float b = diag[i] * diag[i] / area[i];
   for (uint32_t k = offsets[i]; k < offsets[i + 1]; ++k) {
     const float wik = w[k];
-    b += wik * wik / area[neighbors[k]];
+    b += wik * wik / area[neighbor_at(neighbors, i, k)];
   }
   return b > 0 && b - b == 0.0f ? b : 1.0f;
 }

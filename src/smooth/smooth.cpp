@@ -80,9 +80,14 @@ void for_each_in_colors(const ClassRuns& classes, F&& f, P&& prefetch, PC&& pref
   }
 }
 
-Vec3f neighbour_mean(const Adjacency& adj, std::span<const Vec3f> x, uint32_t i) {
-  return neighbour_mean_row(adj.offsets.data(), adj.neighbors.data(), x.data(), i);
+template <class Neighbors>
+Vec3f neighbour_mean(const Adjacency& adj, const Neighbors& neighbors, std::span<const Vec3f> x, uint32_t i) {
+  return neighbour_mean_row(adj.offsets.data(), neighbors, x.data(), i);
 }
+
+/// Hints the cache to load entry e of the neighbour lists.
+inline void prefetch_entry(const uint32_t* neighbors, uint32_t e) { __builtin_prefetch(neighbors + e); }
+inline void prefetch_entry(const CompactNeighbors& neighbors, uint32_t e) { __builtin_prefetch(neighbors.delta + e); }
 
 double energy_of(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> x, std::vector<Vec3f>& scratch,
                  std::span<const uint32_t> rank) {
@@ -210,9 +215,10 @@ class Renumbered {
 /// triangles' (its triangle or corner lists are freed once the operator is built); `triangles` may
 /// be empty when it has corner lists. Gauss-Seidel when
 /// `layout` is given (the classes, in the numbering of x and triangles), Jacobi otherwise.
-template <class Project, class PrefetchConstraint, class Forget>
+/// `neighbors`: adj's neighbour lists as Adjacency::with_neighbors gives them.
+template <class Neighbors, class Project, class PrefetchConstraint, class Forget>
 SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triangles, Adjacency& adj,
-                         const SweepLayout* layout,
+                         const Neighbors& neighbors, const SweepLayout* layout,
                          bool constrained_any, Project&& project_constraint,
                          PrefetchConstraint&& prefetch_constraint, Forget&& forget,
                          const SmoothOptions& o, const std::function<void(double)>& progress) {
@@ -254,7 +260,7 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
       for (int s = 0; s < o.steps_a; ++s, tick()) {
         for_each_in_colors(layout->a, [&](uint32_t i) {
           const Vec3f from = x[i];
-          x[i] = from + (neighbour_mean(adj, x, i) - from) * (w * vertex_factor(i));
+          x[i] = from + (neighbour_mean(adj, neighbors, x, i) - from) * (w * vertex_factor(i));
           project(i, from);
         }, prefetch, [&](std::size_t q) {
           const auto [b, e] = chunk_range(q);
@@ -263,7 +269,7 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
       }
     } else {
       for (int s = 0; s < o.steps_a; ++s, tick()) {
-        for_each_vertex(nv, [&](uint32_t i) { next[i] = x[i] + (neighbour_mean(adj, x, i) - x[i]) * (w * vertex_factor(i)); });
+        for_each_vertex(nv, [&](uint32_t i) { next[i] = x[i] + (neighbour_mean(adj, neighbors, x, i) - x[i]) * (w * vertex_factor(i)); });
         x.swap(next);  // next: where the vertices were
         for_each_vertex(nv, [&](uint32_t i) { project(i, next[i]); });
       }
@@ -305,15 +311,16 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
         // of that ring — no two vertices of a distance-2 colour class share a ring vertex.
         for_each_in_colors(layout->b, [&](uint32_t i) {
           const Vec3f before = x[i];
-          x[i] -= bilaplacian_row_from_wx(adj, op, scratch, i) * (w * vertex_factor(i) / op.b_diag[i]);
+          x[i] -= bilaplacian_row_from_wx(adj, neighbors, op, scratch, i) * (w * vertex_factor(i) / op.b_diag[i]);
           if (constrained) project(i, before);
           const Vec3f delta = x[i] - before;
           scratch[i] += delta * op.diag[i];
-          for (uint32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) scratch[adj.neighbors[e]] += delta * op.w[e];
+          for (uint32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e)
+            scratch[neighbor_at(neighbors, i, e)] += delta * op.w[e];
         }, [&](uint32_t i) {
           prefetch(i);
           __builtin_prefetch(&scratch[i]);
-          __builtin_prefetch(&adj.neighbors[adj.offsets[i]]);
+          prefetch_entry(neighbors, adj.offsets[i]);
         }, [&](std::size_t q) {
           const auto [b, e] = chunk_range(q);
           prefetch_range(scratch.data(), b, e);
@@ -411,16 +418,21 @@ SmoothReport smooth_cached(std::vector<Vec3f>& x, std::vector<Triangle>& triangl
       adj = renumber_adjacency(std::move(adj), std::move(layout.order));
     }
     const bool corners = adopt_corner_lists(adj, triangles, layout.rank);  // rank: empty unless renumbered
+    // The sweeps read the rows only through the corner lists and the row functions: 2 bytes an
+    // entry will do (the adjacency's largest array; 12 bytes a vertex less).
+    if (corners && o.compact_neighbors) adj.compact_neighbors();
     if (renumber) renumbered.emplace(x, corners ? std::span<Triangle>() : std::span<Triangle>(triangles), layout.rank);
     if (corners) packed.pack();
     // Vertices move little per sweep: each keeps a list of its nearby particles, refreshed only
     // when the vertex has moved too far from where the list was made.
     Cache cache;
     if (constraint) cache.build(*constraint, x);
-    report = smooth_with(
-        x, triangles, adj, gauss_seidel ? &layout : nullptr, constraint != nullptr,
-        [&](uint32_t i, Vec3f from) { x[i] = cache.project(*constraint, i, x[i], from); },
-        [&](uint32_t i) { cache.prefetch(i); }, [&] { cache.forget_slack(); }, options, progress);
+    report = adj.with_neighbors([&](const auto& neighbors) {
+      return smooth_with(
+          x, triangles, adj, neighbors, gauss_seidel ? &layout : nullptr, constraint != nullptr,
+          [&](uint32_t i, Vec3f from) { x[i] = cache.project(*constraint, i, x[i], from); },
+          [&](uint32_t i) { cache.prefetch(i); }, [&] { cache.forget_slack(); }, options, progress);
+    });
   }  // the adjacency, operator lists and particle lists freed: room for the triangles
   packed.restore();
   return report;  // renumbered maps the positions back
@@ -481,7 +493,7 @@ ComponentBatches component_batches(std::size_t nv, std::span<const Triangle> tri
 }
 
 /// smooth_cached on batches of whole components (SmoothOptions::batch_vertices), one after another:
-/// the sweeps' arrays (about 140 bytes a vertex) are held for one batch at a time, beside the
+/// the sweeps' arrays (about 130 bytes a vertex) are held for one batch at a time, beside the
 /// mesh's positions and packed triangles (PackedTriangles: ~7 bytes a vertex instead of 24; each
 /// batch decodes its own), a batch number and a batch index a vertex, and the batch's own copy of
 /// its vertices and triangles. Components do not interact in the sweeps, and a batch numbers its

@@ -22,6 +22,9 @@ struct SmoothOptions : SmoothSchedule {
   /// Gauss-Seidel: run the sweeps on the vertices renumbered class by class (smooth.cpp,
   /// SweepLayout) — the same result, faster; false only to test that it is the same.
   bool renumber = true;
+  /// The sweeps read the neighbour lists in 16 bits an entry (smooth/compact_neighbors.hpp) — the
+  /// same result, 12 bytes a vertex less; false only to test that it is the same.
+  bool compact_neighbors = true;
   /// The sweeps run on groups of whole connected components, one group after another, each of
   /// about this many vertices (a component larger than that is a group of its own); 0: an eighth
   /// of the mesh, or the whole mesh at once where one component holds over 3/4 of it (groups then

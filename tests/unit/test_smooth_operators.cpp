@@ -1,6 +1,8 @@
 // Tests of the A and B operators against a dense reference assembled per triangle.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
 #include <map>
 #include <random>
@@ -9,6 +11,7 @@
 #include "smooth/adjacency.hpp"
 #include "smooth/cotangent_impl.hpp"
 #include "smooth/operators.hpp"
+#include "smooth/smooth.hpp"
 
 namespace meniscus {
 namespace {
@@ -308,6 +311,98 @@ TEST(CotanOperator, CornerListsGiveTheTriangleListsOperatorBitForBit) {
     EXPECT_TRUE(renumbered_corners.tri_row.empty());
     same(build_cotan_operator(x, {}, renumbered_corners), renumbered_reference, "renumbered");
   }
+}
+
+// The 16-bit neighbour lists read back every entry: near ones (within ±32767 of the row's vertex,
+// the bounds included) and far ones (from ±32768 on, listed aside per chunk of 4096 rows), in
+// rows of every length (empty too), at the first and last rows.
+TEST(Adjacency, CompactNeighboursReadBackEveryEntry) {
+  const uint32_t nv = 100000;
+  Adjacency adj;
+  adj.offsets.push_back(0);
+  std::vector<uint32_t> entries;
+  std::mt19937 rng(5);
+  std::size_t far = 0;
+  for (uint32_t i = 0; i < nv; ++i) {
+    const int64_t steps[] = {1, -1, 32767, -32767, 32768, -32768, 40000, -99999, 99999, 7};
+    const std::size_t n = (i * 7) % 11;  // 0 .. 10 entries
+    for (std::size_t k = 0; k < n; ++k) {
+      int64_t j = k < 10 ? int64_t(i) + steps[k] : int64_t(rng() % nv);
+      if (j < 0 || j >= int64_t(nv) || j == int64_t(i)) j = (int64_t(i) + 1) % nv;
+      far += std::abs(j - int64_t(i)) > 32767;
+      entries.push_back(uint32_t(j));
+    }
+    adj.offsets.push_back(uint32_t(entries.size()));
+  }
+  adj.neighbors.assign(entries.begin(), entries.end());
+  adj.compact_neighbors();
+  EXPECT_TRUE(adj.neighbors.empty()) << "the 32-bit lists are freed";
+  EXPECT_EQ(adj.entry_count(), entries.size());
+  EXPECT_EQ(adj.compact.delta.size(), entries.size());
+  EXPECT_EQ(adj.compact.far_entry.size(), far);
+  EXPECT_GT(far, entries.size() / 10);
+  EXPECT_EQ(adj.compact.memory_bytes(), 2 * entries.size() + 8 * far + 4 * ((nv + 4095) / 4096 + 1))
+      << "2 bytes an entry, 8 a far one, 4 a chunk of rows";
+  std::size_t checked = 0;
+  adj.with_neighbors([&](const auto& neighbors) {
+    for (uint32_t i = 0; i < nv; ++i)
+      for (uint32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e, ++checked)
+        ASSERT_EQ(neighbor_at(neighbors, i, e), entries[e]) << "row " << i << " entry " << e;
+  });
+  EXPECT_EQ(checked, entries.size());
+}
+
+// On a mesh numbered at random (most of its 65k vertices' neighbours far in the numbering), the
+// compact lists give the operator, W x and the B rows bit for bit, and so the whole smoothing.
+TEST(CotanOperator, CompactNeighboursGiveTheSameOperatorProductsAndSmoothing) {
+  const TriangleMesh sphere = perturbed_sphere(7, 0.02f, 3);
+  const std::size_t nv = sphere.vertices.size();
+  ASSERT_GT(nv, 65536u);
+  std::vector<uint32_t> rank(nv);
+  for (std::size_t n = 0; n < nv; ++n) rank[n] = uint32_t(n);
+  std::shuffle(rank.begin(), rank.end(), std::mt19937(11));
+  TriangleMesh m;
+  m.vertices.resize(nv);
+  for (std::size_t n = 0; n < nv; ++n) m.vertices[rank[n]] = sphere.vertices[n];
+  m.triangles = sphere.triangles;
+  for (Triangle& t : m.triangles)
+    for (uint32_t& v : t) v = rank[v];
+  Adjacency plain = build_adjacency(nv, m.triangles);
+  ASSERT_TRUE(adopt_corner_lists(plain, m.triangles, {}));
+  Adjacency compact = build_adjacency(nv, m.triangles);
+  ASSERT_TRUE(adopt_corner_lists(compact, m.triangles, {}));
+  compact.compact_neighbors();
+  EXPECT_GT(compact.compact.far_entry.size(), compact.entry_count() / 5);
+  const CotanOperator a = build_cotan_operator(m.vertices, {}, plain);
+  const CotanOperator b = build_cotan_operator(m.vertices, {}, compact);
+  ASSERT_TRUE(a.w == b.w && a.diag == b.diag && a.area == b.area && a.b_diag == b.b_diag);
+  std::vector<Vec3f> wa(nv), wb(nv);
+  apply_w(plain, a, m.vertices, wa);
+  apply_w(compact, b, m.vertices, wb);
+  ASSERT_TRUE(wa == wb);
+  for (uint32_t i = 0; i < nv; i += 97) {
+    ASSERT_EQ(bilaplacian_row(plain, a, m.vertices, i), bilaplacian_row(compact, b, m.vertices, i)) << i;
+    ASSERT_EQ(plain.with_neighbors([&](const auto& n) { return bilaplacian_row_from_wx(plain, n, a, wa, i); }),
+              compact.with_neighbors([&](const auto& n) { return bilaplacian_row_from_wx(compact, n, b, wb, i); }))
+        << i;
+  }
+  SmoothOptions o;
+  o.steps_a = 3;
+  o.steps_b = 3;
+  o.steps_free = 1;
+  std::vector<Vec3f> x[2] = {m.vertices, m.vertices};
+  for (int c = 0; c < 2; ++c) {
+    o.compact_neighbors = c == 1;
+    std::vector<Triangle> t = m.triangles;
+    smooth_surface(x[c], t, nullptr, o);
+    EXPECT_TRUE(t == m.triangles);
+  }
+  std::size_t moved = 0;
+  for (std::size_t i = 0; i < nv; ++i) {
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(std::bit_cast<uint32_t>(x[0][i][k]), std::bit_cast<uint32_t>(x[1][i][k])) << i;
+    moved += !(x[1][i] == m.vertices[i]);
+  }
+  EXPECT_GT(moved, nv / 2);
 }
 
 // A row longer than a byte can index keeps the triangle lists (adopt_corner_lists declines and

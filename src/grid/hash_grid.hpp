@@ -31,6 +31,9 @@ class HashGrid {
   /// Points in cell order; `order()[i]` is the original index of `sorted_points()[i]`.
   std::span<const Vec3f> sorted_points() const { return sorted_; }
   std::span<const uint32_t> order() const { return order_; }
+  /// Frees order() (empty from then on), for a caller that needs no more original indices: 4
+  /// bytes a point (the pipeline, through the smoothing when no attribute is transferred).
+  void release_order() { std::vector<uint32_t>().swap(order_); }
   /// Occupied cells, sorted by key; cell c holds sorted points [cell_start[c], cell_start[c+1]).
   std::span<const uint64_t> cell_keys() const { return cell_keys_; }
   std::span<const uint32_t> cell_starts() const { return cell_starts_; }
@@ -66,7 +69,7 @@ class HashGrid {
   Nearest nearest(Vec3f p) const { return grid_nearest(*this, p); }
 
   std::size_t memory_bytes() const {
-    return sorted_.size() * (sizeof(Vec3f) + 4) + cell_keys_.size() * 12 + index_.memory_bytes();
+    return sorted_.size() * sizeof(Vec3f) + order_.size() * 4 + cell_keys_.size() * 12 + index_.memory_bytes();
   }
   /// Whether the occupied cells are found through a dense array (CellIndex) rather than a hash.
   bool dense_index() const { return index_.dense(); }

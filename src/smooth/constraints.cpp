@@ -65,53 +65,62 @@ void NeighbourCache::refresh(const ShellConstraint& c, uint32_t i, Vec3f y) {
   NearestK<kCapacity + 1> nearest;  // by squared distance
   const float radius = c.r_outer + margin_;
   c.particles->for_each_within(y, radius, [&](uint32_t id, float d2) { nearest.offer(d2, id); });
-  CachedParticleList& e = entries_[i];
-  e.set_anchor(y);
-  nearest.store(kCapacity, slots(i));
+  uint32_t* ids = slots(i);
+  nearest.store(kCapacity, ids);
+  PackedParticleList& e = entries_[i];
+  if (ids[0] == kNotFound) {  // no anchor: the next projection refreshes again
+    e = {{0, 0, 0}, 0};
+    return;
+  }
   // Complete within the radius, or only up to (strictly below) the first particle left out.
   const float left_out2 = nearest.first_left_out(kCapacity, -1.0f);
-  e.reach = left_out2 >= 0 ? std::sqrt(left_out2) * (1.0f - 1e-6f) : radius;
+  const float reach = left_out2 >= 0 ? std::sqrt(left_out2) * (1.0f - 1e-6f) : radius;
+  // y rounded to the anchor grid around the first particle; the reach shortened by the distance
+  // between them (with a margin for the rounding of that distance) and rounded down.
+  const Vec3f from_first = (y - c.particles->point(ids[0])) / unit_;
+  for (int k = 0; k < 3; ++k) e.anchor_units[k] = int16_t(std::clamp(std::lround(from_first[k]), -32767l, 32767l));
+  const float off = length(anchor(c, i) - y) * 1.001f + unit_ * 1e-3f;
+  const float units = (reach - off) * (1.0f - 1e-6f) / unit_;
+  e.reach_units = units > 0 ? uint16_t(std::min(std::floor(units), 65535.0f)) : 0;
+}
+
+Vec3f NeighbourCache::anchor(const ShellConstraint& c, uint32_t i) const {
+  const PackedParticleList& e = entries_[i];
+  const Vec3f units{float(e.anchor_units[0]), float(e.anchor_units[1]), float(e.anchor_units[2])};
+  return c.particles->point(slots(i)[0]) + units * unit_;
 }
 
 HashGrid::Nearest NeighbourCache::scan(const ShellConstraint& c, uint32_t i, Vec3f y, float moved) const {
   const auto points = c.particles->sorted_points();
-  const CachedParticleList& e = entries_[i];
   const uint32_t* ids = slots(i);
+  // The nearest of the (at most two) listed particles, ties to the smaller index.
   HashGrid::Nearest best;
-  float best_dist = INFINITY;
   for (int k = 0; k < kCapacity && ids[k] != kNotFound; ++k) {
-    const Vec3f p = points[ids[k]];
-    // Sorted by distance to the anchor, and |p − y| ≥ |p − anchor| − moved: once the anchor
-    // distance exceeds best + moved (with a rounding allowance), no later entry is nearer.
-    const float from_anchor2 = length2(p - e.anchor());
-    const float bound = (best_dist + moved) * (1.0f + 1e-5f);
-    if (from_anchor2 > bound * bound) break;
-    const float d2 = length2(p - y);
-    if (d2 < best.dist2 || (d2 == best.dist2 && ids[k] < best.index)) {
-      best = {ids[k], d2};
-      best_dist = std::sqrt(d2);
-    }
+    const float d2 = length2(points[ids[k]] - y);
+    if (d2 < best.dist2 || (d2 == best.dist2 && ids[k] < best.index)) best = {ids[k], d2};
   }
-  const float certain = e.reach - moved;
+  const float certain = float(entries_[i].reach_units) * unit_ - moved;
   if (best.index != kNotFound && certain > 0 && best.dist2 <= certain * certain) return best;
   return {};
 }
 
 void NeighbourCache::build(const ShellConstraint& c, std::span<const Vec3f> x) {
   margin_ = 0.3f * c.r_outer;
+  unit_ = c.r_outer / 16384.0f;
   make_lists(x, [&](uint32_t i, Vec3f y) { refresh(c, i, y); });
 }
 
 Vec3f NeighbourCache::project_moved(const ShellConstraint& c, uint32_t i, Vec3f x) {
-  CachedParticleList& e = entries_[i];
   float last_dist2 = -1;
   const Vec3f out = project_with(c, x, [&](Vec3f y) {
-    float moved = length(y - e.anchor());
     HashGrid::Nearest n;
-    if (moved < margin_) n = scan(c, i, y, moved);
+    if (slots(i)[0] != kNotFound) {
+      const float moved = length(y - anchor(c, i));
+      if (moved < margin_) n = scan(c, i, y, moved);
+    }
     if (n.index == kNotFound) {
       refresh(c, i, y);
-      n = scan(c, i, y, 0.0f);
+      if (slots(i)[0] != kNotFound) n = scan(c, i, y, length(y - anchor(c, i)));
       if (n.index == kNotFound) n = nearest_particle(c, y);
     }
     last_dist2 = n.dist2;

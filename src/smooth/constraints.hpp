@@ -41,10 +41,22 @@ struct CachedParticleList {
 };
 static_assert(sizeof(CachedParticleList) == 16);
 
-/// What NeighbourCache and EllipsoidCache share: per vertex a CachedParticleList, K particle slots
+/// NeighbourCache's record (8 bytes): the anchor as a multiple of a unit (r_outer / 16384) away
+/// from the list's first particle, and the reach in that unit. The list is made at y and stored
+/// at the anchor it rounds y to, its reach shortened by their distance (and rounded down): every
+/// particle within the reach of that anchor lies within the reach of y, so the list stays exact.
+/// A vertex lies within r_outer · 1.3 of its list's first particle (the search radius), 21299
+/// units; an empty list has no anchor.
+struct PackedParticleList {
+  int16_t anchor_units[3];
+  uint16_t reach_units;
+};
+static_assert(sizeof(PackedParticleList) == 8);
+
+/// What NeighbourCache and EllipsoidCache share: per vertex a record (Entry), K particle slots
 /// and the slack of the skip test — how far, in the constraint's distance, the vertex may move
 /// from where its last projection left it and stay inside its shell (negative: unknown).
-template <int K>
+template <int K, class Entry = CachedParticleList>
 class CachedParticleLists {
  public:
   static constexpr int kCapacity = K;
@@ -58,7 +70,7 @@ class CachedParticleLists {
     __builtin_prefetch(slots(i));
   }
   std::size_t memory_bytes() const {
-    return entries_.size() * sizeof(CachedParticleList) + ids_.size() * sizeof(uint32_t) +
+    return entries_.size() * sizeof(Entry) + ids_.size() * sizeof(uint32_t) +
            slack_.size() * sizeof(float);
   }
 
@@ -95,7 +107,7 @@ class CachedParticleLists {
   uint32_t* slots(uint32_t i) { return ids_.data() + std::size_t(i) * K; }
   const uint32_t* slots(uint32_t i) const { return ids_.data() + std::size_t(i) * K; }
 
-  UninitVector<CachedParticleList> entries_;
+  UninitVector<Entry> entries_;
   UninitVector<uint32_t> ids_;  ///< K slots per vertex, nearest to the anchor first
   UninitVector<float> slack_;
 };
@@ -109,11 +121,11 @@ class CachedParticleLists {
 /// exceeds (best distance + m), and is certified when its distance is ≤ reach − m; otherwise the
 /// list is rebuilt at y (and the grid answers if even that cannot certify). Each vertex touches
 /// only its own list, so vertices may be projected in parallel as long as no vertex is
-/// projected by two threads at once. Two particles a list (24 bytes a vertex with the record and
-/// the slack): as fast as four or eight in splash and block runs — the slack test ends most
-/// projections, and the nearest particle rarely changes between refreshes — and 8 bytes a vertex
-/// less than four, through the whole smoothing (bench/RESULTS.md).
-class NeighbourCache : public CachedParticleLists<2> {
+/// projected by two threads at once. Two particles a list (20 bytes a vertex with the packed
+/// record and the slack): as fast as four or eight in splash and block runs — the slack test ends
+/// most projections, and the nearest particle rarely changes between refreshes — and 8 bytes a
+/// vertex less than four, through the whole smoothing (bench/RESULTS.md).
+class NeighbourCache : public CachedParticleLists<2, PackedParticleList> {
  public:
   /// Lists, for every vertex, the particles nearest to its current position.
   void build(const ShellConstraint& c, std::span<const Vec3f> x);
@@ -136,7 +148,10 @@ class NeighbourCache : public CachedParticleLists<2> {
   Vec3f project_moved(const ShellConstraint& c, uint32_t i, Vec3f x);
   void refresh(const ShellConstraint& c, uint32_t i, Vec3f y);
   HashGrid::Nearest scan(const ShellConstraint& c, uint32_t i, Vec3f y, float moved) const;
+  /// Vertex i's anchor (its list not empty).
+  Vec3f anchor(const ShellConstraint& c, uint32_t i) const;
   float margin_ = 0;
+  float unit_ = 0;  ///< of PackedParticleList
 };
 
 /// Projects every vertex in parallel.

@@ -17,6 +17,7 @@
 #include "mesh/packed_triangles.hpp"
 #include "smooth/adjacency.hpp"
 #include "smooth/operators.hpp"
+#include "smooth/sweep_undo.hpp"
 
 namespace meniscus {
 
@@ -296,15 +297,21 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
     float w = o.relax_b;
     double energy = energy_of(adj, op, x, scratch, rank);
     report.energy_start = energy;
+    // Where the sweep started, for the guard's undo: Gauss-Seidel moves each vertex once and
+    // records the move (SweepUndo, 6 bytes a vertex); Jacobi keeps a copy.
+    SweepUndo undo;
     std::vector<Vec3f> backup;
-    reserve_huge(backup, nv);
+    if (!gauss_seidel) reserve_huge(backup, nv);
     for (int s = 0; s < steps_b; ++s) {
       const bool constrained = s < o.steps_b && constrained_any;
       if (o.rebuild_b > 0 && s > 0 && s % o.rebuild_b == 0) {
         op = build_cotan_operator(x, triangles, adj, rank);
         energy = energy_of(adj, op, x, scratch, rank);
       }
-      backup = x;
+      if (gauss_seidel)
+        undo.begin(nv);
+      else
+        backup = x;
       if (gauss_seidel) {
         // scratch = W x (energy_of computed it for the current x) is kept current as vertices
         // move: (B x)_i needs only the W x of i's ring, and a move of x_i changes only the W x
@@ -313,6 +320,7 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
           const Vec3f before = x[i];
           x[i] -= bilaplacian_row_from_wx(adj, neighbors, op, scratch, i) * (w * vertex_factor(i) / op.b_diag[i]);
           if (constrained) project(i, before);
+          undo.record(i, before, x[i]);
           const Vec3f delta = x[i] - before;
           scratch[i] += delta * op.diag[i];
           for (uint32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e)
@@ -345,7 +353,10 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
       // (the projection is not a descent step), but a large rise means the sweep diverges.
       const double tolerance = constrained ? 0.05 : 1e-4;
       if (e > energy * (1.0 + tolerance) && w > 1.0f / 64) {
-        x.swap(backup);
+        if (gauss_seidel)
+          undo.undo(x);
+        else
+          x.swap(backup);
         if (constrained_any) forget();
         w *= 0.5f;
         ++report.relax_halvings;

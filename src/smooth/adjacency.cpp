@@ -149,6 +149,22 @@ Adjacency renumber_adjacency(Adjacency&& adj, std::vector<uint32_t> order) {
     const uint32_t b = adj.offsets[order[n]], e = adj.offsets[order[n] + 1];
     for (uint32_t k = b; k < e; ++k) row[k - b] = rank[adj.neighbors[k]];
   });
+  UninitVector<uint32_t>().swap(adj.neighbors);  // room for the corner lists' copy
+  UninitVector<uint32_t>().swap(rank);
+  if (!adj.corner_offsets.empty()) {
+    // The slots index a row's entries, which keep their order: the lists move with their rows.
+    resize_huge(out.corner_offsets, nv + 1);
+    out.corner_offsets[0] = 0;
+    parallel_for_index(nv, 65536, [&](std::size_t n) {
+      out.corner_offsets[n + 1] = adj.corner_offsets[order[n] + 1] - adj.corner_offsets[order[n]];
+    });
+    std::inclusive_scan(out.corner_offsets.begin(), out.corner_offsets.end(), out.corner_offsets.begin());
+    resize_huge(out.corners, adj.corners.size());
+    parallel_for_index(nv, 4096, [&](std::size_t n) {
+      const uint32_t b = adj.corner_offsets[order[n]], e = adj.corner_offsets[order[n] + 1];
+      std::copy(adj.corners.begin() + b, adj.corners.begin() + e, out.corners.begin() + out.corner_offsets[n]);
+    });
+  }
   if (!adj.tri_offsets.empty()) {
     out.tri_offsets = std::move(adj.tri_offsets);
     out.tri_ids = std::move(adj.tri_ids);

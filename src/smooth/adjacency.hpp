@@ -60,7 +60,8 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
 /// are, with tri_row = order (composed with the adjacency's own tri_row, if any): permuting them
 /// would write a third of a gigabyte on splash 1M for the one pass that reads them
 /// (build_cotan_operator). Much cheaper than build_adjacency of the relabelled triangles, which it
-/// equals up to the order within rows.
+/// equals up to the order within rows. Corner lists (adopt_corner_lists) move with their rows: their
+/// slots stay valid, as the rows keep their order. The neighbour lists must not be compact yet.
 Adjacency renumber_adjacency(Adjacency&& adjacency, std::vector<uint32_t> order);
 
 /// Replaces the triangle lists (tri_offsets, tri_ids, tri_row: freed) by corner lists, in the same

@@ -419,21 +419,24 @@ SmoothReport smooth_cached(std::vector<Vec3f>& x, std::vector<Triangle>& triangl
   {
     Adjacency adj = build_adjacency(x.size(), triangles);
     if (gauss_seidel) layout = sweep_layout(adj, o.renumber);
+    // The corner lists first, in the mesh's numbering (a renumbering moves them with their rows):
+    // the triangles and their lists are then done with before the rows are renumbered, which
+    // holds two copies of the rows for a moment (the set-up's peak had been there).
+    const bool corners = adopt_corner_lists(adj, triangles, {});
+    if (corners) packed.pack();
     if (renumber) {
       if (o.vertex_relax.size() == x.size()) {
         relax.resize(x.size());
         for (std::size_t n = 0; n < x.size(); ++n) relax[n] = o.vertex_relax[layout.order[n]];
         options.vertex_relax = relax;
       }
-      // The order becomes the adjacency's tri_row (the sweeps need only rank).
+      // Without corner lists the order becomes the adjacency's tri_row (the sweeps need only rank).
       adj = renumber_adjacency(std::move(adj), std::move(layout.order));
     }
-    const bool corners = adopt_corner_lists(adj, triangles, layout.rank);  // rank: empty unless renumbered
     // The sweeps read the rows only through the corner lists and the row functions: 2 bytes an
     // entry will do (the adjacency's largest array; 12 bytes a vertex less).
     if (corners && o.compact_neighbors) adj.compact_neighbors();
     if (renumber) renumbered.emplace(x, corners ? std::span<Triangle>() : std::span<Triangle>(triangles), layout.rank);
-    if (corners) packed.pack();
     // Vertices move little per sweep: each keeps a list of its nearby particles, refreshed only
     // when the vertex has moved too far from where the list was made.
     Cache cache;

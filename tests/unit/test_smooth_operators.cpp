@@ -310,6 +310,20 @@ TEST(CotanOperator, CornerListsGiveTheTriangleListsOperatorBitForBit) {
     ASSERT_TRUE(adopt_corner_lists(renumbered_corners, m->triangles, rank));
     EXPECT_TRUE(renumbered_corners.tri_row.empty());
     same(build_cotan_operator(x, {}, renumbered_corners), renumbered_reference, "renumbered");
+
+    // Adopted in the mesh's numbering, then renumbered (the smoothing's order): the lists move
+    // with their rows and are those adopted after the renumbering.
+    Adjacency adopted_first = build_adjacency(nv, m->triangles);
+    ASSERT_TRUE(adopt_corner_lists(adopted_first, m->triangles, {}));
+    adopted_first = renumber_adjacency(std::move(adopted_first), order);
+    EXPECT_TRUE(adopted_first.tri_row.empty() && adopted_first.tri_ids.empty());
+    EXPECT_TRUE(adopted_first.corner_offsets == renumbered_corners.corner_offsets);
+    ASSERT_EQ(adopted_first.corners.size(), renumbered_corners.corners.size());
+    for (std::size_t k = 0; k < adopted_first.corners.size(); ++k) {
+      ASSERT_EQ(adopted_first.corners[k].j, renumbered_corners.corners[k].j) << k;
+      ASSERT_EQ(adopted_first.corners[k].l, renumbered_corners.corners[k].l) << k;
+    }
+    same(build_cotan_operator(x, {}, adopted_first), renumbered_reference, "adopted, then renumbered");
   }
 }
 

@@ -13,7 +13,7 @@ CompactNeighborLists compact_neighbor_lists(std::span<const uint32_t> offsets, s
   const std::size_t chunks = (nv + kChunk - 1) / kChunk;
   auto near = [](uint32_t i, uint32_t n) {
     const int64_t d = int64_t(n) - int64_t(i);
-    return d >= -INT16_MAX && d <= INT16_MAX;
+    return d >= -CompactNeighbors::kNear && d <= CompactNeighbors::kNear;
   };
   auto rows_of = [&](std::size_t q) { return std::pair(uint32_t(q * kChunk), uint32_t(std::min(nv, (q + 1) * kChunk))); };
   CompactNeighborLists out;
@@ -39,7 +39,9 @@ CompactNeighborLists compact_neighbor_lists(std::span<const uint32_t> offsets, s
         if (near(i, n)) {
           out.delta[k] = int16_t(int32_t(n) - int32_t(i));
         } else {
-          out.delta[k] = CompactNeighbors::kFar;
+          const uint32_t in_chunk = f - out.chunk_far[q];
+          out.delta[k] = in_chunk < CompactNeighbors::kIndexed ? int16_t(CompactNeighbors::kIndexBase + int32_t(in_chunk))
+                                                               : CompactNeighbors::kFar;
           out.far_entry[f] = k;
           out.far_vertex[f++] = n;
         }

@@ -327,8 +327,9 @@ TEST(CotanOperator, CornerListsGiveTheTriangleListsOperatorBitForBit) {
   }
 }
 
-// The 16-bit neighbour lists read back every entry: near ones (within ±32767 of the row's vertex,
-// the bounds included) and far ones (from ±32768 on, listed aside per chunk of 4096 rows), in
+// The 16-bit neighbour lists read back every entry: near ones (within ±30000 of the row's vertex,
+// the bounds included) and far ones (from ±30001 on, listed aside per chunk of 4096 rows: the
+// first 2767 of a chunk by index, the rest by search — this test's chunks have thousands), in
 // rows of every length (empty too), at the first and last rows.
 TEST(Adjacency, CompactNeighboursReadBackEveryEntry) {
   const uint32_t nv = 100000;
@@ -338,12 +339,12 @@ TEST(Adjacency, CompactNeighboursReadBackEveryEntry) {
   std::mt19937 rng(5);
   std::size_t far = 0;
   for (uint32_t i = 0; i < nv; ++i) {
-    const int64_t steps[] = {1, -1, 32767, -32767, 32768, -32768, 40000, -99999, 99999, 7};
+    const int64_t steps[] = {1, -1, 30000, -30000, 30001, -30001, 40000, -99999, 99999, 7};
     const std::size_t n = (i * 7) % 11;  // 0 .. 10 entries
     for (std::size_t k = 0; k < n; ++k) {
       int64_t j = k < 10 ? int64_t(i) + steps[k] : int64_t(rng() % nv);
       if (j < 0 || j >= int64_t(nv) || j == int64_t(i)) j = (int64_t(i) + 1) % nv;
-      far += std::abs(j - int64_t(i)) > 32767;
+      far += std::abs(j - int64_t(i)) > 30000;
       entries.push_back(uint32_t(j));
     }
     adj.offsets.push_back(uint32_t(entries.size()));
@@ -355,6 +356,11 @@ TEST(Adjacency, CompactNeighboursReadBackEveryEntry) {
   EXPECT_EQ(adj.compact.delta.size(), entries.size());
   EXPECT_EQ(adj.compact.far_entry.size(), far);
   EXPECT_GT(far, entries.size() / 10);
+  std::size_t searched = 0;  // far entries past the first 2767 of their chunk
+  for (std::size_t q = 0; q + 1 < adj.compact.chunk_far.size(); ++q)
+    searched += std::max<std::size_t>(adj.compact.chunk_far[q + 1] - adj.compact.chunk_far[q], 2767) - 2767;
+  EXPECT_GT(searched, far / 4) << "both ways of finding a far entry are read";
+  EXPECT_LT(searched, far * 3 / 4);
   EXPECT_EQ(adj.compact.memory_bytes(), 2 * entries.size() + 8 * far + 4 * ((nv + 4095) / 4096 + 1))
       << "2 bytes an entry, 8 a far one, 4 a chunk of rows";
   std::size_t checked = 0;

@@ -507,7 +507,7 @@ ComponentBatches component_batches(std::size_t nv, std::span<const Triangle> tri
 }
 
 /// smooth_cached on batches of whole components (SmoothOptions::batch_vertices), one after another:
-/// the sweeps' arrays (about 130 bytes a vertex) are held for one batch at a time, beside the
+/// the sweeps' arrays (about 115 bytes a vertex) are held for one batch at a time, beside the
 /// mesh's positions and packed triangles (PackedTriangles: ~7 bytes a vertex instead of 24; each
 /// batch decodes its own), a batch number and a batch index a vertex, and the batch's own copy of
 /// its vertices and triangles. Components do not interact in the sweeps, and a batch numbers its
@@ -530,7 +530,7 @@ SmoothReport smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& triang
   };
   if (target >= nv) return whole();
   ComponentBatches batches = component_batches(nv, triangles, target);
-  // Batches hold, beside the sweeps' arrays of the largest batch (about 120 bytes a vertex), about
+  // Batches hold, beside the sweeps' arrays of the largest batch (about 115 bytes a vertex), about
   // 30 bytes a vertex of the whole mesh (its positions and packed triangles, a batch number, a
   // batch index and the batch's vertex list): with a component of over 3/4 of the mesh, the whole
   // mesh at once needs less (the SPHysics frame of the bench: one component of 98 %, 8.6 MB of

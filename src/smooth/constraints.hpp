@@ -115,10 +115,10 @@ class CachedParticleLists {
 /// Per-vertex lists of the particles near each vertex, so that the projection in the smoothing
 /// sweeps (where vertices move little from one sweep to the next) scans a short contiguous
 /// list instead of querying the hash grid. Each list holds the (at most kCapacity) particles
-/// nearest to the vertex's anchor (its position when the list was made), sorted by distance,
-/// and the radius `reach` within which it holds every particle. Exact: the nearest particle to
-/// a point y with |y − anchor| = m is found by scanning the list until the anchor distance
-/// exceeds (best distance + m), and is certified when its distance is ≤ reach − m; otherwise the
+/// nearest to where it was made, sorted by distance, and the radius `reach` around its anchor
+/// (that point rounded, PackedParticleList) within which it holds every particle. Exact: the
+/// nearest particle to a point y with |y − anchor| = m is the nearest listed one when its
+/// distance is ≤ reach − m (certified); otherwise the
 /// list is rebuilt at y (and the grid answers if even that cannot certify). Each vertex touches
 /// only its own list, so vertices may be projected in parallel as long as no vertex is
 /// projected by two threads at once. Two particles a list (20 bytes a vertex with the packed

@@ -131,40 +131,43 @@ bool adopt_corner_lists(Adjacency& adj, std::span<const Triangle> triangles, std
   return true;
 }
 
+namespace {
+
+/// The CSR rows (offsets, values) in a new order, row n being old row order[n], each entry through
+/// f, into (out_offsets, out_values). The row lengths in parallel (the array's first touch), then
+/// their running sum, then the rows.
+template <class T, class F>
+void permute_rows(const UninitVector<uint32_t>& offsets, const UninitVector<T>& values, std::span<const uint32_t> order,
+                  UninitVector<uint32_t>& out_offsets, UninitVector<T>& out_values, F&& f) {
+  const std::size_t nv = order.size();
+  resize_huge(out_offsets, nv + 1);
+  out_offsets[0] = 0;
+  parallel_for_index(nv, 65536, [&](std::size_t n) { out_offsets[n + 1] = offsets[order[n] + 1] - offsets[order[n]]; });
+  std::inclusive_scan(out_offsets.begin(), out_offsets.end(), out_offsets.begin());
+  resize_huge(out_values, values.size());
+  parallel_for_index(nv, 4096, [&](std::size_t n) {
+    T* row = out_values.data() + out_offsets[n];
+    const uint32_t b = offsets[order[n]], e = offsets[order[n] + 1];
+    for (uint32_t k = b; k < e; ++k) row[k - b] = f(values[k]);
+  });
+}
+
+}  // namespace
+
 Adjacency renumber_adjacency(Adjacency&& adj, std::vector<uint32_t> order) {
   const std::size_t nv = adj.vertex_count();
   UninitVector<uint32_t> rank;
   resize_huge(rank, nv);
   parallel_for_index(nv, 4096, [&](std::size_t n) { rank[order[n]] = uint32_t(n); });
   Adjacency out;
-  // Rows of old vertex order[n], in new order, their entries relabelled. The row lengths in
-  // parallel (the array's first touch), then their running sum.
-  resize_huge(out.offsets, nv + 1);
-  out.offsets[0] = 0;
-  parallel_for_index(nv, 65536, [&](std::size_t n) { out.offsets[n + 1] = adj.offsets[order[n] + 1] - adj.offsets[order[n]]; });
-  std::inclusive_scan(out.offsets.begin(), out.offsets.end(), out.offsets.begin());
-  resize_huge(out.neighbors, adj.neighbors.size());
-  parallel_for_index(nv, 4096, [&](std::size_t n) {
-    uint32_t* row = out.neighbors.data() + out.offsets[n];
-    const uint32_t b = adj.offsets[order[n]], e = adj.offsets[order[n] + 1];
-    for (uint32_t k = b; k < e; ++k) row[k - b] = rank[adj.neighbors[k]];
-  });
+  // Rows of old vertex order[n], in new order, their entries relabelled.
+  permute_rows(adj.offsets, adj.neighbors, order, out.offsets, out.neighbors, [&](uint32_t v) { return rank[v]; });
   UninitVector<uint32_t>().swap(adj.neighbors);  // room for the corner lists' copy
   UninitVector<uint32_t>().swap(rank);
-  if (!adj.corner_offsets.empty()) {
-    // The slots index a row's entries, which keep their order: the lists move with their rows.
-    resize_huge(out.corner_offsets, nv + 1);
-    out.corner_offsets[0] = 0;
-    parallel_for_index(nv, 65536, [&](std::size_t n) {
-      out.corner_offsets[n + 1] = adj.corner_offsets[order[n] + 1] - adj.corner_offsets[order[n]];
-    });
-    std::inclusive_scan(out.corner_offsets.begin(), out.corner_offsets.end(), out.corner_offsets.begin());
-    resize_huge(out.corners, adj.corners.size());
-    parallel_for_index(nv, 4096, [&](std::size_t n) {
-      const uint32_t b = adj.corner_offsets[order[n]], e = adj.corner_offsets[order[n] + 1];
-      std::copy(adj.corners.begin() + b, adj.corners.begin() + e, out.corners.begin() + out.corner_offsets[n]);
-    });
-  }
+  // The slots index a row's entries, which keep their order: the corner lists move with their rows.
+  if (!adj.corner_offsets.empty())
+    permute_rows(adj.corner_offsets, adj.corners, order, out.corner_offsets, out.corners,
+                 [](CornerSlots c) { return c; });
   if (!adj.tri_offsets.empty()) {
     out.tri_offsets = std::move(adj.tri_offsets);
     out.tri_ids = std::move(adj.tri_ids);

@@ -308,11 +308,8 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
         op = build_cotan_operator(x, triangles, adj, rank);
         energy = energy_of(adj, op, x, scratch, rank);
       }
-      if (gauss_seidel)
-        undo.begin(nv);
-      else
-        backup = x;
       if (gauss_seidel) {
+        undo.begin(nv);
         // scratch = W x (energy_of computed it for the current x) is kept current as vertices
         // move: (B x)_i needs only the W x of i's ring, and a move of x_i changes only the W x
         // of that ring — no two vertices of a distance-2 colour class share a ring vertex.
@@ -336,6 +333,7 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
           prefetch_range(x.data(), b, e);
         });
       } else {
+        backup = x;
         // scratch = W x was computed by energy_of for the current x.
         std::vector<Vec3f> z(nv);
         for_each_vertex(nv, [&](uint32_t i) { z[i] = scratch[i] / op.area[i]; });

@@ -28,10 +28,10 @@ struct SmoothOptions : SmoothSchedule {
   /// The sweeps run on groups of whole connected components, one group after another, each of
   /// about this many vertices (a component larger than that is a group of its own); 0: an eighth
   /// of the mesh, or the whole mesh at once where one component holds over 3/4 of it (groups then
-  /// need more memory than the whole, see smooth.cpp). Components do not interact in the sweeps, so the result is the same, except
-  /// that the energy guard halves ω of a group that diverges, not of the whole mesh, and the floor
-  /// on collapsed vertices' areas is relative to the group's mean area; only one group's arrays
-  /// are held at a time. SIZE_MAX: the whole mesh at once.
+  /// need more memory than the whole, see smooth.cpp). Components do not interact in the sweeps,
+  /// so the result is the same, except that the energy guard halves ω of a group that diverges,
+  /// not of the whole mesh, and the floor on collapsed vertices' areas is relative to the group's
+  /// mean area; only one group's arrays are held at a time. SIZE_MAX: the whole mesh at once.
   std::size_t batch_vertices = 0;
 };
 

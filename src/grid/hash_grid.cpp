@@ -28,8 +28,6 @@ HashGrid::HashGrid(std::span<const Vec3f> points, float cell_size) : cell_size_(
           "points reach {:g} on axis {}, more than {} cells of size {:g} from the origin; "
           "use a larger spacing or move the particles nearer the origin",
           std::max(std::abs(double(lo[a])), std::abs(double(hi[a]))), "xyz"[a], kMaxCoord, cell_size));
-  cell_min_ = cell_of(lo);
-  cell_max_ = cell_of(hi);
 
   std::vector<std::pair<uint64_t, uint32_t>> keyed(n);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {

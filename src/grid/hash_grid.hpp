@@ -37,8 +37,9 @@ class HashGrid {
   /// Occupied cells, sorted by key; cell c holds sorted points [cell_start[c], cell_start[c+1]).
   std::span<const uint64_t> cell_keys() const { return cell_keys_; }
   std::span<const uint32_t> cell_starts() const { return cell_starts_; }
-  Vec3i cell_min() const { return cell_min_; }
-  Vec3i cell_max() const { return cell_max_; }
+  /// The box of the occupied cells (min > max when there are none).
+  Vec3i cell_min() const { return index_.box_min(); }
+  Vec3i cell_max() const { return index_.box_max(); }
 
   Vec3i cell_of(Vec3f p) const { return grid_cell_of(p, cell_size_); }
   Vec3f point(uint32_t i) const { return sorted_[i]; }
@@ -80,7 +81,6 @@ class HashGrid {
   std::vector<uint32_t> order_;
   std::vector<uint64_t> cell_keys_;
   std::vector<uint32_t> cell_starts_;
-  Vec3i cell_min_{}, cell_max_{-1, -1, -1};
   CellIndex index_;
 };
 

@@ -127,6 +127,9 @@ class CellIndex {
     return dense_.empty() ? hash_.find(pack_coords(c.x, c.y, c.z)) : dense_[slot(c)];
   }
   bool dense() const { return !dense_.empty(); }
+  /// The box of the cells (lo > hi on an axis when there are none).
+  Vec3i box_min() const { return lo_; }
+  Vec3i box_max() const { return hi_; }
   std::size_t memory_bytes() const { return dense_.size() * sizeof(uint32_t) + hash_.memory_bytes(); }
 
  private:

@@ -103,9 +103,7 @@ double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx, st
 Vec3f bilaplacian_row(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> x, uint32_t i) {
   return adj.with_neighbors([&](const auto& neighbors) {
     auto wx = [&](uint32_t k) {
-      Vec3f acc = x[k] * op.diag[k];
-      for (uint32_t e = adj.offsets[k]; e < adj.offsets[k + 1]; ++e) acc += x[neighbor_at(neighbors, k, e)] * op.w[e];
-      return acc;
+      return apply_w_row(adj.offsets.data(), neighbors, op.w.data(), op.diag.data(), x.data(), k);
     };
     Vec3f out = wx(i) * (op.diag[i] / op.area[i]);
     for (uint32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) {

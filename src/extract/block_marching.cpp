@@ -43,25 +43,21 @@ void check_key_range(const SparseField& field, Vec3i block) {
 class BlockWeld {
  public:
   BlockWeld() = default;
-  explicit BlockWeld(BlockEdgeCodes codes) : codes_(codes), entry_(codes.count(), kUnused) {
+  explicit BlockWeld(BlockEdgeCodes codes) : entry_(codes.count(), kUnused) {
     if (codes.count() > (std::size_t(1) << 16)) throw std::logic_error("march_blocks: block edge codes exceed 16 bits");
   }
 
-  /// Writes the codes of the distinct keys of `keys` to `edges` in first-use order and each key's
-  /// index among them to `corner_edges`; returns how many there are. `origin`: the block's first
-  /// cell.
-  uint32_t weld(Vec3i origin, std::span<const uint64_t> keys, uint16_t* edges, uint16_t* corner_edges) {
-    if (keys.size() >= kUnused) throw std::logic_error("march_blocks: a block has too many corners for 16-bit indices");
-    const Vec3i base = origin - Vec3i{2, 2, 2};  // base cells run from origin − 2 to origin + n + 1
-    const int span = codes_.span;
+  /// Writes the distinct codes of `codes` to `edges` in first-use order and each code's index
+  /// among them to `corner_edges`; returns how many there are.
+  uint32_t weld(std::span<const uint16_t> codes, uint16_t* edges, uint16_t* corner_edges) {
+    if (codes.size() >= kUnused) throw std::logic_error("march_blocks: a block has too many corners for 16-bit indices");
+    const std::size_t code_count = entry_.size();
     uint16_t count = 0;
-    for (std::size_t c = 0; c < keys.size(); ++c) {
-      const uint64_t key = keys[c];
-      const Vec3i l = edge_key_cell(key) - base;
-      const int type = edge_key_type(key);
-      if (l.x < 0 || l.y < 0 || l.z < 0 || l.x >= span || l.y >= span || l.z >= span || (type >> codes_.type_bits) != 0)
-        throw std::logic_error("march_blocks: an edge lies more than 2 cells outside the block that marched it");
-      const uint16_t code = codes_.encode(l, type);
+    for (std::size_t c = 0; c < codes.size(); ++c) {
+      const uint16_t code = codes[c];
+      // The kernels' edges lie within 2 cells of their block (block_marching.hpp's static checks):
+      // a code past the table is a broken kernel, not bad input.
+      if (code >= code_count) throw std::logic_error("march_blocks: an edge lies more than 2 cells outside its block");
       uint16_t e = entry_[code];
       if (e == kUnused) {
         e = count++;
@@ -76,7 +72,6 @@ class BlockWeld {
 
  private:
   static constexpr uint16_t kUnused = 0xFFFF;
-  BlockEdgeCodes codes_;
   std::vector<uint16_t> entry_;  // per code: the edge's index in the block, kUnused when unused
 };
 
@@ -209,12 +204,12 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
     std::vector<std::unique_ptr<uint16_t[]>> edge_pages;
     std::vector<std::unique_ptr<uint16_t[]>> corner_pages;
     std::size_t edges_used = 0, corners_used = 0;
-    std::vector<uint64_t> keys;  // the block's corner keys as its kernel wrote them
+    std::vector<uint16_t> codes;  // the block's corner codes as its kernel wrote them
     BlockWeld weld;
   };
   tbb::enumerable_thread_specific<Writer> writers([&] {
     Writer w;
-    w.keys.resize(block_max);
+    w.codes.resize(block_max);
     w.weld = BlockWeld(out.codes);
     return w;
   });
@@ -226,7 +221,7 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
     Writer& w = writers.local();
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
       if (!gather_inside_masks(field, cell_masks, blocks[b], masks)) continue;
-      const uint32_t triangles = kernel(masks, w.keys.data());
+      const uint32_t triangles = kernel(masks, w.codes.data());
       if (triangles > max_triangles_per_cell * uint32_t(n * n * n))
         throw std::logic_error("march_blocks: a block wrote more triangles than its cells can have");
       if (triangles == 0) continue;
@@ -242,7 +237,7 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
       }
       uint16_t* edges = w.edge_pages.back().get() + w.edges_used;
       uint16_t* corner_edges = w.corner_pages.back().get() + w.corners_used;
-      const uint32_t count = w.weld.weld(masks.origin, std::span(w.keys.data(), corners), edges, corner_edges);
+      const uint32_t count = w.weld.weld(std::span(w.codes.data(), corners), edges, corner_edges);
       out.block_edges[b] = edges;
       out.block_corners[b] = corner_edges;
       triangle_offsets[b + 1] = triangles;

@@ -7,10 +7,12 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <stdexcept>
 #include <vector>
 
 #include "extract/edge_key.hpp"
 #include "extract/marching.hpp"
+#include "extract/marching_impl.hpp"
 #include "field/sparse_field.hpp"
 
 namespace meniscus {
@@ -50,27 +52,88 @@ bool gather_inside_masks(const SparseField& field, std::span<const uint8_t> cell
                          PaddedMasks& masks);
 
 /// Marches the cells of one padded block: returns its triangle count and, when `out` is not null,
-/// writes 3 edge keys per triangle there (cell order z, y, x, then the kernel's order).
-using BlockKernel = uint32_t (*)(const PaddedMasks& masks, uint64_t* out);
+/// writes 3 edge codes per triangle there (BlockEdgeCodes of the block's lattice; cell order z, y,
+/// x, then the kernel's order). Codes, not keys: the kernel adds a 16-bit delta instead of a 64-bit
+/// one, and the block's weld indexes its table with the code as it comes, without decoding a key
+/// (on splash 1M the decode was about a third of the weld's time).
+using BlockKernel = uint32_t (*)(const PaddedMasks& masks, uint16_t* out);
 
 /// Runs `kernel` over blocks_to_march in one pass (each thread into its own pages, see
-/// MarchedCorners) and returns the corner keys of all triangles, 3 per triangle, with the blocks'
+/// MarchedCorners) and returns the corners of all triangles, 3 per triangle, with the blocks'
 /// triangle offsets and cell origins — the same for any number of threads. A cell yields at most
 /// `max_triangles_per_cell` triangles.
 MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stencil, BlockKernel kernel,
                             uint32_t max_triangles_per_cell);
 
-/// The BlockKernel of a cubic-lattice extractor: runs `cell` (march_cube_cell, march_kuhn_cell)
-/// on every cell of the block, in x-fastest order, appending its triangles' corner keys.
-template <uint32_t (*cell)(const uint8_t*, int, int, uint64_t, uint64_t*)>
-uint32_t march_cubic_block(const PaddedMasks& masks, uint64_t* out) {
+/// The code deltas of a tile's tetrahedron edges (TileEdgeTable), for blocks coded by `codes`:
+/// the word tables of the CPU's block kernels (marching_impl.hpp takes them as `delta(t, e)`).
+template <int TetCount>
+struct TileCodeDeltas {
+  uint16_t d[TetCount][6] = {};
+  constexpr uint16_t operator()(int tet, int edge) const { return d[tet][edge]; }
+};
+template <int TetCount>
+constexpr TileCodeDeltas<TetCount> tile_code_deltas(const TileEdgeTable<TetCount>& table, BlockEdgeCodes codes) {
+  TileCodeDeltas<TetCount> deltas;
+  for (int t = 0; t < TetCount; ++t)
+    for (int e = 0; e < 6; ++e) {
+      const TetEdge& te = table.tet_edges[t][e];
+      deltas.d[t][e] = codes.delta(te.dx, te.dy, te.dz, te.type);
+    }
+  return deltas;
+}
+/// Whether every edge of the table is based within [lo, hi] cells of its owning cell on each axis:
+/// a block's cells then code all their edges in range when lo ≥ −2 and hi ≤ 1 (BlockEdgeCodes).
+template <int TetCount>
+constexpr bool edge_bases_within(const TileEdgeTable<TetCount>& table, int lo, int hi) {
+  for (int t = 0; t < TetCount; ++t)
+    for (int e = 0; e < 6; ++e) {
+      const TetEdge& te = table.tet_edges[t][e];
+      for (const int d : {te.dx, te.dy, te.dz})
+        if (d < lo || d > hi) return false;
+    }
+  return true;
+}
+static_assert(edge_bases_within(kA15EdgeTable, -2, 1), "an A15 edge would leave its block's codes");
+static_assert(edge_bases_within(kKuhnEdgeTable, 0, 1), "a cube edge would leave its block's codes");
+
+/// The cubic lattice's block codes (8-cell blocks) and the deltas of its cube and Kuhn edges.
+inline constexpr BlockEdgeCodes kCubicBlockCodes = BlockEdgeCodes::of(8, false);
+inline constexpr TileCodeDeltas<kKuhnTetCount> kKuhnCodeDeltas = tile_code_deltas(kKuhnEdgeTable, kCubicBlockCodes);
+struct CubeCodeDeltas {
+  uint16_t d[12] = {};
+  constexpr uint16_t operator()(int edge) const { return d[edge]; }
+};
+inline constexpr CubeCodeDeltas kCubeCodeDeltas = [] {
+  CubeCodeDeltas deltas;
+  for (int e = 0; e < 12; ++e) {
+    const int c = kCubeEdgeCorners[e][0], a = cube_edge_axis(e);
+    deltas.d[e] = kCubicBlockCodes.delta(cube_corner_coord(c, 0), cube_corner_coord(c, 1), cube_corner_coord(c, 2),
+                                         cubic_edge_type(a == 0, a == 1, a == 2));
+  }
+  return deltas;
+}();
+
+/// The cell kernels of the cubic-lattice extractors in block codes (kCubicBlockCodes).
+inline uint32_t march_cube_codes(const uint8_t* mask, int stride_y, int stride_z, uint16_t cell, uint16_t* out) {
+  return march_cube_words(mask, stride_y, stride_z, kCubeCases, kCubeCodeDeltas, cell, out);
+}
+inline uint32_t march_kuhn_codes(const uint8_t* mask, int stride_y, int stride_z, uint16_t cell, uint16_t* out) {
+  return march_kuhn_words(mask, stride_y, stride_z, kTetCases, kKuhnTets, kKuhnCodeDeltas, cell, out);
+}
+
+/// The BlockKernel of a cubic-lattice extractor: runs `cell` (march_cube_codes, march_kuhn_codes)
+/// on every cell of the block, in x-fastest order, appending its triangles' corner codes.
+template <uint32_t (*cell)(const uint8_t*, int, int, uint16_t, uint16_t*)>
+uint32_t march_cubic_block(const PaddedMasks& masks, uint16_t* out) {
   const int n = masks.cells, sy = masks.padded, sz = masks.padded * masks.padded;
+  if (n + 4 != kCubicBlockCodes.span) throw std::logic_error("march_cubic_block: a cubic block must be 8³ cells");
   uint32_t count = 0;
   for (int z = 0; z < n; ++z)
     for (int y = 0; y < n; ++y)
       for (int x = 0; x < n; ++x) {
-        const uint64_t cell_key = edge_key(masks.origin + Vec3i{x, y, z}, 0);
-        count += cell(masks.at(x, y, z), sy, sz, cell_key, out != nullptr ? out + 3 * std::size_t(count) : nullptr);
+        const uint16_t cell_code = kCubicBlockCodes.encode({x + 2, y + 2, z + 2}, 0);
+        count += cell(masks.at(x, y, z), sy, sz, cell_code, out != nullptr ? out + 3 * std::size_t(count) : nullptr);
       }
   return count;
 }

@@ -23,13 +23,19 @@ namespace meniscus {
 struct BlockEdgeCodes {
   int span = 0;
   int type_bits = 0;
+  static constexpr BlockEdgeCodes of(int block_cells, bool a15) { return {block_cells + 4, a15 ? 6 : 3}; }
   static BlockEdgeCodes of(const SampleLattice& lattice) {
-    return {lattice.block_cells() + 4, lattice.kind == SampleLattice::Kind::a15 ? 6 : 3};
+    return of(lattice.block_cells(), lattice.kind == SampleLattice::Kind::a15);
   }
   /// Number of distinct codes (every code is below it); ≤ 2^16 for both lattices.
-  std::size_t count() const { return (std::size_t(span) * std::size_t(span) * std::size_t(span)) << type_bits; }
-  uint16_t encode(Vec3i local, int type) const {
+  constexpr std::size_t count() const { return (std::size_t(span) * std::size_t(span) * std::size_t(span)) << type_bits; }
+  constexpr uint16_t encode(Vec3i local, int type) const {
     return uint16_t((((local.z * span + local.y) * span + local.x) << type_bits) | type);
+  }
+  /// What the code of an edge based at cell + (dx, dy, dz), of type `type`, adds to cell's code
+  /// encode(cell, 0), mod 2^16 (codes are linear in the base cell; the offset may be negative).
+  constexpr uint16_t delta(int dx, int dy, int dz, int type) const {
+    return uint16_t(((dz * span + dy) * span + dx) * (1 << type_bits) + type);
   }
   /// The edge key of `code` in the block whose first cell is `origin`.
   uint64_t key(Vec3i origin, uint16_t code) const {

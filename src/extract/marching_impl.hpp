@@ -4,9 +4,10 @@
 //
 // Each kernel reads inside masks of a padded block (bit s of a cell's mask: sample s is inside,
 // φ < iso; cells addressed as mask[dx + dy·stride_y + dz·stride_z] from the kernel's own cell) and
-// returns the number of triangles of its cell. When `out` is not null it also writes 3 edge keys
-// per triangle there, in a fixed order (tetrahedron/case order), which makes the extraction
-// deterministic. `cell_key` is edge_key(cell, 0); an edge's key is cell_key + its key delta.
+// returns the number of triangles of its cell. When `out` is not null it also writes 3 words per
+// triangle there, in a fixed order (tetrahedron/case order), which makes the extraction
+// deterministic: edge keys, where `cell_key` is edge_key(cell, 0) and an edge's key is cell_key +
+// its key delta, or (the CPU's block kernels) the block's 16-bit edge codes, the same sum mod 2^16.
 #pragma once
 
 #include <cstdint>
@@ -37,9 +38,6 @@ MENISCUS_HD constexpr TileVertexLookup make_tile_vertex_lookup(int stride_y, int
   return lookup;
 }
 
-/// Marching Tiles: the 46 A15 tetrahedra owned by one cell, `mask` pointing at the cell's own
-/// mask in a layout described by `lookup`. The caller skips cells whose neighbourhood is all
-/// inside or all outside; the kernel is still correct for them (0).
 /// The tables the kernels read, as one struct: the CPU passes the constexpr tables of the headers,
 /// the CUDA backend a copy in device memory (device code cannot index host constexpr arrays).
 struct MarchingTables {
@@ -75,9 +73,26 @@ MENISCUS_HD inline bool tile_cell_may_cross(const uint8_t* mask, int stride_y, i
   return !(any == 0 || all == 0xFF);
 }
 
-MENISCUS_HD inline uint32_t march_tile_cell(const uint8_t* mask, const TileVertexLookup& lookup,
-                                            const TetCaseTable& tet_cases, const TileEdgeTable<kA15TetCount>& edges,
-                                            uint64_t cell_key, uint64_t* out) {
+/// An edge's word is its owning cell's word plus the edge's delta, in the word's modular
+/// arithmetic: edge keys (uint64_t, edge_key_delta) or a block's edge codes (uint16_t,
+/// BlockEdgeCodes::delta, block_marching.hpp). These give a kernel its deltas from the key tables.
+template <int TetCount>
+struct TileKeyDeltas {
+  const TileEdgeTable<TetCount>* table;
+  MENISCUS_HD uint64_t operator()(int tet, int edge) const { return table->tet_edges[tet][edge].key_delta; }
+};
+struct CubeKeyDeltas {
+  const uint64_t* deltas;
+  MENISCUS_HD uint64_t operator()(int edge) const { return deltas[edge]; }
+};
+
+/// Marching Tiles: the 46 A15 tetrahedra owned by one cell, `mask` pointing at the cell's own
+/// mask in a layout described by `lookup`; `delta(t, e)`: what edge e of tetrahedron t adds to
+/// the cell's word `cell`. The caller skips cells whose neighbourhood is all inside or all outside;
+/// the kernel is still correct for them (0).
+template <class Word, class Deltas>
+MENISCUS_HD inline uint32_t march_tile_words(const uint8_t* mask, const TileVertexLookup& lookup,
+                                             const TetCaseTable& tet_cases, const Deltas& delta, Word cell, Word* out) {
   uint32_t n = 0;
   for (int t = 0; t < kA15TetCount; ++t) {
     const int16_t* o = lookup.offset[t];
@@ -87,12 +102,17 @@ MENISCUS_HD inline uint32_t march_tile_cell(const uint8_t* mask, const TileVerte
     const TetCase& tc = tet_cases.cases[c];
     if (out != nullptr) {
       for (int k = 0; k < tc.count; ++k)
-        for (int j = 0; j < 3; ++j)
-          out[3 * (n + k) + j] = cell_key + edges.tet_edges[t][tc.edges[k][j]].key_delta;
+        for (int j = 0; j < 3; ++j) out[3 * (n + k) + j] = Word(cell + delta(t, tc.edges[k][j]));
     }
     n += tc.count;
   }
   return n;
+}
+
+MENISCUS_HD inline uint32_t march_tile_cell(const uint8_t* mask, const TileVertexLookup& lookup,
+                                            const TetCaseTable& tet_cases, const TileEdgeTable<kA15TetCount>& edges,
+                                            uint64_t cell_key, uint64_t* out) {
+  return march_tile_words(mask, lookup, tet_cases, TileKeyDeltas<kA15TetCount>{&edges}, cell_key, out);
 }
 
 /// Inside pattern of the cube whose lowest corner is the kernel's cell (cubic lattice, sample 0).
@@ -104,38 +124,56 @@ MENISCUS_HD inline int cube_case(const uint8_t* mask, int stride_y, int stride_z
   return c;
 }
 
-/// Marching Cubes: the cube whose lowest corner is the kernel's cell.
-MENISCUS_HD inline uint32_t march_cube_cell(const uint8_t* mask, int stride_y, int stride_z, const MarchingTables& tables,
-                                            uint64_t cell_key, uint64_t* out) {
-  const CubeCase& cc = tables.cube_cases.cases[cube_case(mask, stride_y, stride_z)];
+/// Marching Cubes: the cube whose lowest corner is the kernel's cell; `delta(e)`: what cube edge
+/// e adds to the cell's word.
+template <class Word, class Deltas>
+MENISCUS_HD inline uint32_t march_cube_words(const uint8_t* mask, int stride_y, int stride_z,
+                                             const CubeCaseTable& cube_cases, const Deltas& delta, Word cell,
+                                             Word* out) {
+  const CubeCase& cc = cube_cases.cases[cube_case(mask, stride_y, stride_z)];
   if (out != nullptr) {
     for (int k = 0; k < cc.count; ++k)
-      for (int j = 0; j < 3; ++j) out[3 * k + j] = cell_key + tables.cube_edge_deltas[cc.edges[k][j]];
+      for (int j = 0; j < 3; ++j) out[3 * k + j] = Word(cell + delta(cc.edges[k][j]));
   }
   return cc.count;
 }
 
-/// Marching Tetrahedra: the 6 Kuhn tetrahedra of the cube whose lowest corner is the kernel's cell.
-MENISCUS_HD inline uint32_t march_kuhn_cell(const uint8_t* mask, int stride_y, int stride_z, const MarchingTables& tables,
+MENISCUS_HD inline uint32_t march_cube_cell(const uint8_t* mask, int stride_y, int stride_z, const MarchingTables& tables,
                                             uint64_t cell_key, uint64_t* out) {
+  return march_cube_words(mask, stride_y, stride_z, tables.cube_cases, CubeKeyDeltas{tables.cube_edge_deltas},
+                          cell_key, out);
+}
+
+/// Marching Tetrahedra: the 6 Kuhn tetrahedra of the cube whose lowest corner is the kernel's
+/// cell; `delta(t, e)` as for march_tile_words.
+template <class Word, class Deltas>
+MENISCUS_HD inline uint32_t march_kuhn_words(const uint8_t* mask, int stride_y, int stride_z,
+                                             const TetCaseTable& tet_cases,
+                                             const LatticeSample (&kuhn_tets)[kKuhnTetCount][4], const Deltas& delta,
+                                             Word cell, Word* out) {
   const int corners = cube_case(mask, stride_y, stride_z);
   if (corners == 0 || corners == 255) return 0;
   uint32_t n = 0;
   for (int t = 0; t < kKuhnTetCount; ++t) {
     int c = 0;
     for (int v = 0; v < 4; ++v) {
-      const LatticeSample& p = tables.kuhn_tets[t][v];
+      const LatticeSample& p = kuhn_tets[t][v];
       c |= ((corners >> (p.dx + 2 * p.dy + 4 * p.dz)) & 1) << v;
     }
-    const TetCase& tc = tables.tet_cases.cases[c];
+    const TetCase& tc = tet_cases.cases[c];
     if (out != nullptr) {
       for (int k = 0; k < tc.count; ++k)
-        for (int j = 0; j < 3; ++j)
-          out[3 * (n + k) + j] = cell_key + tables.kuhn_edges.tet_edges[t][tc.edges[k][j]].key_delta;
+        for (int j = 0; j < 3; ++j) out[3 * (n + k) + j] = Word(cell + delta(t, tc.edges[k][j]));
     }
     n += tc.count;
   }
   return n;
+}
+
+MENISCUS_HD inline uint32_t march_kuhn_cell(const uint8_t* mask, int stride_y, int stride_z, const MarchingTables& tables,
+                                            uint64_t cell_key, uint64_t* out) {
+  return march_kuhn_words(mask, stride_y, stride_z, tables.tet_cases, tables.kuhn_tets,
+                          TileKeyDeltas<kKuhnTetCount>{&tables.kuhn_edges}, cell_key, out);
 }
 
 // --- the CPU's entry points: the kernels above with the constexpr tables (host only) -------------

@@ -6,7 +6,7 @@
 namespace meniscus {
 
 MarchedCorners march_tetrahedra(const SparseField& field, float iso) {
-  return march_blocks(field, iso, /*full_stencil=*/false, march_cubic_block<march_kuhn_cell>, 12);
+  return march_blocks(field, iso, /*full_stencil=*/false, march_cubic_block<march_kuhn_codes>, 12);
 }
 
 }  // namespace meniscus

@@ -12,8 +12,10 @@ namespace {
 // The A15 block is 4³ cells, padded to 6³.
 constexpr int kPadded = 4 + 2;
 constexpr TileVertexLookup kLookup = make_tile_vertex_lookup(kPadded, kPadded* kPadded);
+constexpr BlockEdgeCodes kCodes = BlockEdgeCodes::of(4, true);
+constexpr TileCodeDeltas<kA15TetCount> kCodeDeltas = tile_code_deltas(kA15EdgeTable, kCodes);
 
-uint32_t march_tile_block(const PaddedMasks& masks, uint64_t* out) {
+uint32_t march_tile_block(const PaddedMasks& masks, uint16_t* out) {
   const int n = masks.cells;
   constexpr int sy = kPadded, sz = kPadded * kPadded;
   if (masks.padded != kPadded) throw std::logic_error("march_tiles: the A15 block must be 4³ cells");
@@ -23,8 +25,9 @@ uint32_t march_tile_block(const PaddedMasks& masks, uint64_t* out) {
       for (int x = 0; x < n; ++x) {
         const uint8_t* m = masks.at(x, y, z);
         if (!tile_cell_may_cross(m, sy, sz)) continue;
-        const uint64_t cell_key = edge_key(masks.origin + Vec3i{x, y, z}, 0);
-        count += march_tile_cell(m, kLookup, cell_key, out != nullptr ? out + 3 * std::size_t(count) : nullptr);
+        const uint16_t cell_code = kCodes.encode({x + 2, y + 2, z + 2}, 0);
+        count += march_tile_words(m, kLookup, kTetCases, kCodeDeltas, cell_code,
+                                  out != nullptr ? out + 3 * std::size_t(count) : nullptr);
       }
   return count;
 }

@@ -1,7 +1,6 @@
 // meniscus — small interior void removal.
 #include "mesh/voids.hpp"
 
-#include "common/huge_pages.hpp"
 #include "mesh/compact.hpp"
 #include "mesh/components.hpp"
 #include "mesh/ray_parity_impl.hpp"
@@ -22,12 +21,20 @@ struct Component {
   double volume;
 };
 
-/// Connected components by shared vertices: each vertex's root, and the components with
-/// triangles in root order (a list, not a per-vertex array: a splash frame has millions of
-/// vertices and a few thousand components).
+/// A run of consecutive triangles of one component: [first, end) and their volume.
+struct Run {
+  uint32_t root, first, end;
+  double volume;
+};
+
+/// Connected components by shared vertices: each vertex's root, the components with triangles in
+/// root order (a list, not a per-vertex array: a splash frame has millions of vertices and a few
+/// thousand components), and the runs of triangles of each component, by root and then in
+/// triangle order (a component's triangles, for dropping it without reading the others).
 struct MeshComponents {
   std::vector<uint32_t> root;
   std::vector<Component> components;
+  std::vector<Run> runs;
 };
 
 MeshComponents mesh_components(const TriangleMesh& mesh) {
@@ -43,7 +50,7 @@ MeshComponents mesh_components(const TriangleMesh& mesh) {
   constexpr std::size_t kChunk = std::size_t(1) << 16;
   constexpr std::size_t kAhead = 64;  // as in vertex_normals: the corners of a triangle ahead
   const std::size_t chunks = (nt + kChunk - 1) / kChunk;
-  std::vector<std::vector<Component>> runs(chunks);
+  std::vector<std::vector<Run>> runs(chunks);
   tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t k) {
     auto& out = runs[k];
     for (std::size_t i = k * kChunk, end = std::min(nt, i + kChunk); i < end; ++i) {
@@ -58,17 +65,18 @@ MeshComponents mesh_components(const TriangleMesh& mesh) {
                         double(a.y) * (double(b.x) * cc.z - double(b.z) * cc.x) +
                         double(a.z) * (double(b.x) * cc.y - double(b.y) * cc.x)) / 6.0;
       const uint32_t r = c.root[t[0]];
-      if (out.empty() || out.back().root != r)
-        out.push_back({r, v});
-      else
+      if (out.empty() || out.back().root != r) {
+        out.push_back({r, uint32_t(i), uint32_t(i + 1), v});
+      } else {
+        out.back().end = uint32_t(i + 1);
         out.back().volume += v;
+      }
     }
   });
-  std::vector<Component> all;
-  for (const auto& chunk : runs) all.insert(all.end(), chunk.begin(), chunk.end());
-  std::vector<std::vector<Component>>().swap(runs);
-  std::stable_sort(all.begin(), all.end(), [](const Component& a, const Component& b) { return a.root < b.root; });
-  for (const Component& run : all)
+  for (const auto& chunk : runs) c.runs.insert(c.runs.end(), chunk.begin(), chunk.end());
+  std::vector<std::vector<Run>>().swap(runs);
+  std::stable_sort(c.runs.begin(), c.runs.end(), [](const Run& a, const Run& b) { return a.root < b.root; });
+  for (const Run& run : c.runs)
     if (c.components.empty() || c.components.back().root != run.root)
       c.components.push_back({run.root, 0.0 + run.volume});  // from 0.0, as the per-vertex sums were
     else
@@ -76,13 +84,27 @@ MeshComponents mesh_components(const TriangleMesh& mesh) {
   return c;
 }
 
-/// Removes the triangles of the components whose root is in `roots`, then the vertices
-/// no triangle uses (order otherwise preserved; normals and attributes follow if present).
-void drop_components(TriangleMesh& mesh, const std::vector<uint32_t>& root, const std::vector<uint32_t>& roots) {
-  std::vector<uint8_t> drop;
-  assign_populated(drop, mesh.vertices.size(), uint8_t(0));
-  for (uint32_t r : roots) drop[r] = 1;
-  keep_vertices(mesh, [&](uint32_t v) { return !drop[root[v]]; });
+/// Removes the components whose roots `roots` lists (in root order) with their triangles and
+/// vertices (order otherwise preserved; normals and attributes follow if present): the triangles
+/// from the components' runs, the vertices as their corners, and one pass over what is kept
+/// (drop_sorted) instead of flags over the whole mesh (keep_vertices): on splash 1M (97 voids,
+/// 2364 of 26 M triangles) 0.10 -> 0.03 s.
+void drop_components(TriangleMesh& mesh, const MeshComponents& c, const std::vector<uint32_t>& roots) {
+  std::vector<uint32_t> triangles;
+  auto run = c.runs.begin();
+  for (const uint32_t r : roots) {
+    run = std::lower_bound(run, c.runs.end(), r, [](const Run& a, uint32_t root) { return a.root < root; });
+    for (; run != c.runs.end() && run->root == r; ++run)
+      for (uint32_t t = run->first; t < run->end; ++t) triangles.push_back(t);
+  }
+  std::sort(triangles.begin(), triangles.end());
+  std::vector<uint32_t> vertices;
+  vertices.reserve(3 * triangles.size());
+  for (const uint32_t t : triangles)
+    for (const uint32_t v : mesh.triangles[t]) vertices.push_back(v);
+  std::sort(vertices.begin(), vertices.end());
+  vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+  drop_sorted(mesh, triangles, vertices);
 }
 
 }  // namespace
@@ -92,7 +114,7 @@ std::size_t remove_small_voids(TriangleMesh& mesh, double max_volume) {
   std::vector<uint32_t> voids;
   for (const Component& k : c.components)
     if (k.volume <= 0.0 && k.volume > -max_volume) voids.push_back(k.root);
-  if (!voids.empty()) drop_components(mesh, c.root, voids);
+  if (!voids.empty()) drop_components(mesh, c, voids);
   return voids.size();
 }
 
@@ -127,7 +149,7 @@ std::size_t remove_unsupported_blobs(TriangleMesh& mesh, const HashGrid& particl
   std::vector<uint32_t> blobs;
   for (std::size_t k = 0; k < candidates.size(); ++k)
     if (empty[k]) blobs.push_back(candidates[k]->root);
-  if (!blobs.empty()) drop_components(mesh, c.root, blobs);
+  if (!blobs.empty()) drop_components(mesh, c, blobs);
   return blobs.size();
 }
 

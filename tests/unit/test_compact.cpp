@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <functional>
 #include <random>
+#include <stdexcept>
 
 #include "mesh/compact.hpp"
 
@@ -132,6 +134,64 @@ TEST(Compact, KeepVerticesDropsWholeComponentsAsKeepTrianglesDoes) {
   TriangleMesh all = original;
   EXPECT_EQ(keep_vertices(all, [](uint32_t) { return true; }), 0u);
   expect_same(all, original);
+}
+
+/// Components of kGroup vertices (strips within each group, the groups' triangles interleaved over
+/// the array as the extraction's blocks interleave components), and the mesh without the groups
+/// `dropped` says, by keep_triangles; drop_sorted must give the same from the sorted lists.
+void expect_drop_sorted_matches(std::size_t groups, const std::function<bool(std::size_t)>& dropped) {
+  constexpr uint32_t kGroup = 24;
+  TriangleMesh original = random_mesh(groups * kGroup, 1, 11);
+  original.triangles.clear();
+  std::mt19937 rng(12);
+  for (uint32_t k = 0; k < 2; ++k)
+    for (std::size_t g = 0; g < groups; ++g)
+      for (uint32_t i = k; i + 2 < kGroup; i += 2) {
+        const uint32_t v = uint32_t(g) * kGroup + i;
+        original.triangles.push_back(rng() % 2 ? Triangle{v, v + 1, v + 2} : Triangle{v + 2, v + 1, v});
+      }
+  TriangleMesh expected = original;
+  const std::size_t count = keep_triangles(expected, [&](const Triangle& t) { return !dropped(t[0] / kGroup); });
+  std::vector<uint32_t> triangles, vertices;
+  for (uint32_t t = 0; t < original.triangles.size(); ++t)
+    if (dropped(original.triangles[t][0] / kGroup)) triangles.push_back(t);
+  for (uint32_t v = 0; v < original.vertices.size(); ++v)
+    if (dropped(v / kGroup)) vertices.push_back(v);
+  ASSERT_EQ(triangles.size(), count);
+  for (int threads : {1, 2, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+    TriangleMesh m = original;
+    EXPECT_EQ(drop_sorted(m, triangles, vertices), count) << threads;
+    expect_same(m, expected);
+  }
+}
+
+TEST(Compact, DropSortedMatchesKeepTrianglesForSparseDrops) {
+  // 11000 groups: 242k triangles, 264k vertices. Sparse drops (1.2 %) make 43 chunks of each, each
+  // moving by the drops before it and the next one overwriting its tail: every 97th group, a run of
+  // groups whose triangles straddle chunk edges, the first group and the last (the last chunk's end).
+  const std::size_t groups = 11000;
+  expect_drop_sorted_matches(groups, [&](std::size_t g) {
+    return g % 97 == 5 || (g >= 5000 && g < 5012) || g == 0 || g == groups - 1;
+  });
+}
+
+TEST(Compact, DropSortedMatchesKeepTrianglesForDenseDrops) {
+  // Drops too many for chunks of twice their number: one chunk, every third group.
+  expect_drop_sorted_matches(3000, [](std::size_t g) { return g % 3 == 1; });
+  // Nothing, and everything.
+  expect_drop_sorted_matches(500, [](std::size_t) { return false; });
+  expect_drop_sorted_matches(500, [](std::size_t) { return true; });
+}
+
+TEST(Compact, DropSortedRefusesUnsortedLists) {
+  TriangleMesh m = random_mesh(100, 300, 13);
+  const std::vector<uint32_t> unsorted{5, 3}, none;
+  const std::vector<uint32_t> past_the_end{300};
+  EXPECT_THROW(drop_sorted(m, unsorted, none), std::logic_error);
+  EXPECT_THROW(drop_sorted(m, past_the_end, none), std::logic_error);
+  EXPECT_THROW(drop_sorted(m, none, std::vector<uint32_t>{7, 7}), std::logic_error);
+  EXPECT_EQ(m.triangles.size(), 300u);
 }
 
 }  // namespace

@@ -5,31 +5,83 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
+#include <algorithm>
+#include <cstdint>
 
 namespace meniscus {
 
+namespace {
+
+/// Triangles per chunk of the normals' scatter: a chunk is the unit of work and of the order of
+/// the sums, the same for any number of threads.
+constexpr std::size_t kNormalChunk = std::size_t(1) << 16;
+
+/// How many consecutive chunks must lie between two chunks for their vertex sets to be disjoint:
+/// the smallest w with max(hi[..c]) < min(lo[c + w..]) for every c, from each chunk's smallest
+/// and largest corner (at most the number of chunks: one chunk at a time).
+std::size_t disjoint_stride(std::span<const uint32_t> lo, std::span<const uint32_t> hi) {
+  const std::size_t chunks = lo.size();
+  std::vector<uint32_t> suffix_lo(chunks + 1, UINT32_MAX);
+  for (std::size_t c = chunks; c-- > 0;) suffix_lo[c] = std::min(suffix_lo[c + 1], lo[c]);
+  std::size_t stride = 1, j = 1;
+  uint32_t prefix_hi = 0;
+  for (std::size_t c = 0; c < chunks; ++c) {
+    prefix_hi = std::max(prefix_hi, hi[c]);
+    j = std::max(j, c + 1);
+    while (j < chunks && suffix_lo[j] <= prefix_hi) ++j;  // suffix_lo rises with j, prefix_hi with c
+    stride = std::max(stride, j - c);
+  }
+  return std::min(stride, std::max<std::size_t>(chunks, 1));
+}
+
+}  // namespace
+
 std::vector<Vec3f> vertex_normals(std::span<const Vec3f> x, std::span<const Triangle> triangles) {
-  // One serial pass scattering each triangle's (area-weighted) cross product onto its corners:
-  // cheaper than building the vertex → triangle incidence for a parallel gather, and the sums
-  // come out in the same order every time.
+  // Each triangle's (area-weighted) cross product scattered onto its corners, chunk by chunk, in
+  // waves of chunks far enough apart (disjoint_stride) that no two of a wave share a vertex: a
+  // wave runs in parallel without atomics, and every vertex takes its terms in the same order
+  // whatever the threads (chunk order within a wave, wave order across). Cheaper than building
+  // the vertex → triangle incidence for a gather. A mesh in spatial order has a short stride:
+  // splash 1M's extracted mesh (the extraction's blocks over its row-ordered vertices) 27 of its
+  // 395 chunks, the scatter 0.11 s on one thread -> 0.07 s on two, the stage 0.155 -> 0.13 s
+  // with the pass that finds each chunk's vertex range; its Morton-ordered smoothed mesh 52 of 86.
   std::vector<Vec3f> n;
   assign_huge(n, x.size(), Vec3f{0, 0, 0});
+  const std::size_t nt = triangles.size(), chunks = (nt + kNormalChunk - 1) / kNormalChunk;
+  std::vector<uint32_t> lo(chunks, UINT32_MAX), hi(chunks, 0);
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    uint32_t l = UINT32_MAX, h = 0;
+    for (std::size_t f = c * kNormalChunk, end = std::min(nt, f + kNormalChunk); f < end; ++f)
+      for (const uint32_t v : triangles[f]) {
+        l = std::min(l, v);
+        h = std::max(h, v);
+      }
+    lo[c] = l;
+    hi[c] = h;
+  });
+  const std::size_t stride = disjoint_stride(lo, hi);
   // The corners of the triangle kAhead on are prefetched: the extraction's triangles come block
   // by block while its vertices are in row order, so a block's corners are spread over a dozen
   // rows of the arrays (splash 1M: 0.25-0.27 -> 0.16-0.18 s; 16 ahead 0.20 s, 32 ahead 0.17 s).
   constexpr std::size_t kAhead = 64;
-  for (std::size_t f = 0; f < triangles.size(); ++f) {
-    if (f + kAhead < triangles.size())
-      for (const uint32_t v : triangles[f + kAhead]) {
-        __builtin_prefetch(&x[v]);
-        __builtin_prefetch(&n[v], 1);
-      }
-    const Triangle& t = triangles[f];
-    const Vec3f c = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
-    n[t[0]] += c;
-    n[t[1]] += c;
-    n[t[2]] += c;
-  }
+  const auto scatter = [&](std::size_t c) {
+    const std::size_t end = std::min(nt, (c + 1) * kNormalChunk);
+    for (std::size_t f = c * kNormalChunk; f < end; ++f) {
+      if (f + kAhead < end)
+        for (const uint32_t v : triangles[f + kAhead]) {
+          __builtin_prefetch(&x[v]);
+          __builtin_prefetch(&n[v], 1);
+        }
+      const Triangle& t = triangles[f];
+      const Vec3f cr = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
+      n[t[0]] += cr;
+      n[t[1]] += cr;
+      n[t[2]] += cr;
+    }
+  };
+  for (std::size_t wave = 0; wave < std::min(stride, chunks); ++wave)
+    tbb::parallel_for(std::size_t(0), (chunks - wave + stride - 1) / stride,
+                      [&](std::size_t k) { scatter(wave + k * stride); });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n.size(), 4096), [&](const auto& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) n[i] = normalized(n[i]);
   });

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <array>
 #include <cmath>
 #include <random>
 
@@ -43,6 +44,59 @@ TEST(Normals, AreaWeightingFavoursLargeTriangles) {
   const Vec3f expected = normalized(cross(x[1] - x[0], x[2] - x[0]) + cross(x[3] - x[0], x[1] - x[0]));
   EXPECT_NEAR(dot(n[0], expected), 1.0f, 1e-6f);
   EXPECT_GT(n[0].z, 0.99f);
+}
+
+/// A wavy height field of rows × cols vertices in row order, two triangles per quad in row order:
+/// a mesh in spatial order over many of the normals' chunks (2^16 triangles each).
+TriangleMesh height_field(uint32_t rows, uint32_t cols) {
+  TriangleMesh m;
+  for (uint32_t r = 0; r < rows; ++r)
+    for (uint32_t c = 0; c < cols; ++c)
+      m.vertices.push_back({float(c), float(r), std::sin(0.05f * float(c)) * std::cos(0.03f * float(r)) * 5.0f});
+  for (uint32_t r = 0; r + 1 < rows; ++r)
+    for (uint32_t c = 0; c + 1 < cols; ++c) {
+      const uint32_t v = r * cols + c;
+      m.triangles.push_back({v, v + 1, v + cols + 1});
+      m.triangles.push_back({v, v + cols + 1, v + cols});
+    }
+  return m;
+}
+
+/// Normals summed serially in double precision, in triangle order.
+std::vector<Vec3f> serial_normals(const TriangleMesh& m) {
+  std::vector<std::array<double, 3>> n(m.vertices.size(), {0, 0, 0});
+  for (const Triangle& t : m.triangles) {
+    const Vec3f c = cross(m.vertices[t[1]] - m.vertices[t[0]], m.vertices[t[2]] - m.vertices[t[0]]);
+    for (const uint32_t v : t)
+      for (int a = 0; a < 3; ++a) n[v][std::size_t(a)] += double(c[a]);
+  }
+  std::vector<Vec3f> out;
+  for (const auto& s : n) out.push_back(normalized(Vec3f{float(s[0]), float(s[1]), float(s[2])}));
+  return out;
+}
+
+TEST(Normals, ParallelWavesMatchASerialSumOnEveryThreadCount) {
+  // 638k triangles, 10 chunks each sharing a row of vertices with the next: waves of every other
+  // chunk. Then the same mesh with a hub vertex in triangles all over it, so that far apart chunks
+  // meet and the chunks go one at a time. The normals must match a serial double sum and be
+  // bit-identical on 1, 2 and 4 threads.
+  TriangleMesh hub = height_field(400, 800);
+  for (std::size_t t = 0; t < hub.triangles.size(); t += 5000) hub.triangles[t][0] = 0;
+  for (const TriangleMesh& m : {height_field(400, 800), hub}) {
+    const std::vector<Vec3f> reference = serial_normals(m);
+    std::vector<Vec3f> first;
+    for (int threads : {1, 2, 4}) {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+      const std::vector<Vec3f> n = vertex_normals(m.vertices, m.triangles);
+      ASSERT_EQ(n.size(), reference.size());
+      for (std::size_t v = 0; v < n.size(); ++v) ASSERT_GT(dot(n[v], reference[v]), 1.0f - 1e-5f) << v;
+      if (first.empty())
+        first = n;
+      else
+        for (std::size_t v = 0; v < n.size(); ++v)
+          ASSERT_TRUE(n[v].x == first[v].x && n[v].y == first[v].y && n[v].z == first[v].z) << threads << " " << v;
+    }
+  }
 }
 
 TEST(Erosion, MovesVerticesInwardAndCountsFlips) {

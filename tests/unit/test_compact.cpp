@@ -107,20 +107,27 @@ TEST(Compact, DroppingEverythingEmptiesTheMesh) {
   EXPECT_TRUE(m.attributes[0].values.empty());
 }
 
+/// `groups` components of `group` vertices each: strips of triangles within each group, the groups'
+/// triangles interleaved over the array (as the extraction's blocks interleave components), each
+/// triangle's orientation at random.
+TriangleMesh strip_groups(std::size_t groups, uint32_t group, uint32_t seed) {
+  TriangleMesh m = random_mesh(groups * group, 1, seed);
+  m.triangles.clear();
+  std::mt19937 rng(seed + 1);
+  for (uint32_t k = 0; k < 2; ++k)
+    for (std::size_t g = 0; g < groups; ++g)
+      for (uint32_t i = k; i + 2 < group; i += 2) {
+        const uint32_t v = uint32_t(g) * group + i;
+        m.triangles.push_back(rng() % 2 ? Triangle{v, v + 1, v + 2} : Triangle{v + 2, v + 1, v});
+      }
+  return m;
+}
+
 TEST(Compact, KeepVerticesDropsWholeComponentsAsKeepTrianglesDoes) {
   // Components of 40 vertices (strips of triangles within each group, in mixed order over the
   // triangle array), over several chunks; every third component and a run across a chunk edge go.
   constexpr uint32_t kGroup = 40;
-  const std::size_t groups = 3 * detail::kCompactChunk / kGroup + 7;
-  TriangleMesh original = random_mesh(groups * kGroup, 1, 6);
-  original.triangles.clear();
-  std::mt19937 rng(9);
-  for (uint32_t k = 0; k < 2; ++k)
-    for (std::size_t g = 0; g < groups; ++g)
-      for (uint32_t i = k; i + 2 < kGroup; i += 2) {
-        const uint32_t v = uint32_t(g) * kGroup + i;
-        original.triangles.push_back(rng() % 2 ? Triangle{v, v + 1, v + 2} : Triangle{v + 2, v + 1, v});
-      }
+  const TriangleMesh original = strip_groups(3 * detail::kCompactChunk / kGroup + 7, kGroup, 6);
   auto kept_group = [&](std::size_t g) { return g % 3 != 1 && (g < 800 || g > 900); };
   TriangleMesh expected = original;
   const std::size_t dropped = keep_triangles(expected, [&](const Triangle& t) { return kept_group(t[0] / kGroup); });
@@ -136,20 +143,11 @@ TEST(Compact, KeepVerticesDropsWholeComponentsAsKeepTrianglesDoes) {
   expect_same(all, original);
 }
 
-/// Components of kGroup vertices (strips within each group, the groups' triangles interleaved over
-/// the array as the extraction's blocks interleave components), and the mesh without the groups
-/// `dropped` says, by keep_triangles; drop_sorted must give the same from the sorted lists.
+/// Components of kGroup vertices (strip_groups), and the mesh without the groups `dropped` says, by
+/// keep_triangles; drop_sorted must give the same from the sorted lists.
 void expect_drop_sorted_matches(std::size_t groups, const std::function<bool(std::size_t)>& dropped) {
   constexpr uint32_t kGroup = 24;
-  TriangleMesh original = random_mesh(groups * kGroup, 1, 11);
-  original.triangles.clear();
-  std::mt19937 rng(12);
-  for (uint32_t k = 0; k < 2; ++k)
-    for (std::size_t g = 0; g < groups; ++g)
-      for (uint32_t i = k; i + 2 < kGroup; i += 2) {
-        const uint32_t v = uint32_t(g) * kGroup + i;
-        original.triangles.push_back(rng() % 2 ? Triangle{v, v + 1, v + 2} : Triangle{v + 2, v + 1, v});
-      }
+  const TriangleMesh original = strip_groups(groups, kGroup, 11);
   TriangleMesh expected = original;
   const std::size_t count = keep_triangles(expected, [&](const Triangle& t) { return !dropped(t[0] / kGroup); });
   std::vector<uint32_t> triangles, vertices;

@@ -35,6 +35,19 @@ ParticleSet lattice_ball(float R, float d, Vec3f center) {
   return ps;
 }
 
+TriangleMesh grid_mesh(uint32_t nx, uint32_t ny, const std::function<float(uint32_t, uint32_t)>& height) {
+  TriangleMesh m;
+  for (uint32_t y = 0; y < ny; ++y)
+    for (uint32_t x = 0; x < nx; ++x) m.vertices.push_back({float(x), float(y), height(x, y)});
+  for (uint32_t y = 0; y + 1 < ny; ++y)
+    for (uint32_t x = 0; x + 1 < nx; ++x) {
+      const uint32_t v = y * nx + x;
+      m.triangles.push_back({v, v + 1, v + nx + 1});
+      m.triangles.push_back({v, v + nx + 1, v + nx});
+    }
+  return m;
+}
+
 ParticleSet shell_ball(float R, float d, Vec3f center) {
   ParticleSet ps;
   ps.positions.push_back(center);

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -23,6 +24,10 @@ ParticleSet lattice_ball(float R, float d, Vec3f center = {0, 0, 0});
 /// A ball of concentric spherical shells of particles, the outermost at exactly radius R, each
 /// shell a Fibonacci lattice with neighbour distance ≈ d, shells d apart.
 ParticleSet shell_ball(float R, float d, Vec3f center = {0, 0, 0});
+
+/// A height field of nx × ny vertices (x, y, height(x, y)) in row order, two triangles per quad
+/// in row order, split on the same diagonal: a mesh of known size in spatial order.
+TriangleMesh grid_mesh(uint32_t nx, uint32_t ny, const std::function<float(uint32_t, uint32_t)>& height);
 
 /// A fresh empty directory under the system temp dir, removed by the destructor.
 struct TempDir {

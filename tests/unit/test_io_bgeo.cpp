@@ -310,16 +310,8 @@ TEST(BgeoWriter, RoundTripThroughOurReaders) {
 
 TEST(BgeoWriter, LargeMeshUsesInt32IndicesAndSeveralRuns) {
   // 300 × 240 vertices (> 65536: int32 indices), 142,922 triangles (three runs of ≤ 65535).
-  TriangleMesh m;
   const uint32_t nx = 300, ny = 240;
-  for (uint32_t y = 0; y < ny; ++y)
-    for (uint32_t x = 0; x < nx; ++x) m.vertices.push_back({float(x), float(y), float(x ^ y) * 0.5f});
-  for (uint32_t y = 0; y + 1 < ny; ++y)
-    for (uint32_t x = 0; x + 1 < nx; ++x) {
-      const uint32_t v = y * nx + x;
-      m.triangles.push_back({v, v + 1, v + nx + 1});
-      m.triangles.push_back({v, v + nx + 1, v + nx});
-    }
+  const TriangleMesh m = test::grid_mesh(nx, ny, [](uint32_t x, uint32_t y) { return float(x ^ y) * 0.5f; });
   TempDir dir;
   const std::string path = dir.file("big.bgeo");
   write_mesh(path, m);

@@ -9,6 +9,7 @@
 #include "grid/hash_grid.hpp"
 #include "mesh/voids.hpp"
 #include "meniscus/quality.hpp"
+#include "support/test_support.hpp"
 #include "transfer/attribute_transfer.hpp"
 #include "transfer/normals.hpp"
 
@@ -46,20 +47,12 @@ TEST(Normals, AreaWeightingFavoursLargeTriangles) {
   EXPECT_GT(n[0].z, 0.99f);
 }
 
-/// A wavy height field of rows × cols vertices in row order, two triangles per quad in row order:
-/// a mesh in spatial order over many of the normals' chunks (2^16 triangles each).
+/// A wavy height field of rows × cols vertices in row order (test::grid_mesh): a mesh in spatial
+/// order over many of the normals' chunks (2^16 triangles each).
 TriangleMesh height_field(uint32_t rows, uint32_t cols) {
-  TriangleMesh m;
-  for (uint32_t r = 0; r < rows; ++r)
-    for (uint32_t c = 0; c < cols; ++c)
-      m.vertices.push_back({float(c), float(r), std::sin(0.05f * float(c)) * std::cos(0.03f * float(r)) * 5.0f});
-  for (uint32_t r = 0; r + 1 < rows; ++r)
-    for (uint32_t c = 0; c + 1 < cols; ++c) {
-      const uint32_t v = r * cols + c;
-      m.triangles.push_back({v, v + 1, v + cols + 1});
-      m.triangles.push_back({v, v + cols + 1, v + cols});
-    }
-  return m;
+  return test::grid_mesh(cols, rows, [](uint32_t c, uint32_t r) {
+    return std::sin(0.05f * float(c)) * std::cos(0.03f * float(r)) * 5.0f;
+  });
 }
 
 /// Normals summed serially in double precision, in triangle order.

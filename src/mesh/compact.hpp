@@ -205,31 +205,11 @@ std::size_t keep_triangles(TriangleMesh& mesh, Keep&& keep) {
   return detail::compact_mesh(mesh, kept, used);
 }
 
-/// Keeps the vertices v with keep(v) and the triangles whose corners they are, where every
-/// triangle's corners are all kept or all dropped (whole connected components, say) and every
-/// vertex has a triangle: keep_triangles(mesh, keep(t[0])) without the scatter of each kept
-/// triangle's corners (0.07 of the 0.15 s the void removal's drop took on splash 1M; the stage
-/// 0.35 -> 0.32 s).
-template <class Keep>
-std::size_t keep_vertices(TriangleMesh& mesh, Keep&& keep) {
-  const std::size_t nt = mesh.triangles.size(), nv = mesh.vertices.size();
-  std::vector<uint8_t> kept, used;
-  resize_populated(used, nv);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const auto& r) {
-    for (std::size_t v = r.begin(); v != r.end(); ++v) used[v] = keep(uint32_t(v)) ? 1 : 0;
-  });
-  resize_populated(kept, nt);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nt, 4096), [&](const auto& r) {
-    for (std::size_t t = r.begin(); t != r.end(); ++t) kept[t] = used[mesh.triangles[t][0]];
-  });
-  return detail::compact_mesh(mesh, kept, used);
-}
-
 /// Removes the triangles `triangles` and the vertices `vertices` (both sorted, distinct, in range)
 /// where those vertices are exactly the ones no other triangle uses — whole connected components,
 /// say — and renumbers the kept triangles' corners; order, normals and attributes as in
-/// keep_vertices. For a few drops among many (a splash frame's voids: thousands of its 26 M
-/// triangles), where this reads and writes each kept element once, without keep_vertices' flags,
+/// keep_triangles. For a few drops among many (a splash frame's voids: thousands of its 26 M
+/// triangles), where this reads and writes each kept element once, without keep_triangles' flags,
 /// prefix scans and remap array. Returns the number of triangles dropped.
 inline std::size_t drop_sorted(TriangleMesh& mesh, std::span<const uint32_t> triangles,
                                std::span<const uint32_t> vertices) {

@@ -123,26 +123,6 @@ TriangleMesh strip_groups(std::size_t groups, uint32_t group, uint32_t seed) {
   return m;
 }
 
-TEST(Compact, KeepVerticesDropsWholeComponentsAsKeepTrianglesDoes) {
-  // Components of 40 vertices (strips of triangles within each group, in mixed order over the
-  // triangle array), over several chunks; every third component and a run across a chunk edge go.
-  constexpr uint32_t kGroup = 40;
-  const TriangleMesh original = strip_groups(3 * detail::kCompactChunk / kGroup + 7, kGroup, 6);
-  auto kept_group = [&](std::size_t g) { return g % 3 != 1 && (g < 800 || g > 900); };
-  TriangleMesh expected = original;
-  const std::size_t dropped = keep_triangles(expected, [&](const Triangle& t) { return kept_group(t[0] / kGroup); });
-  ASSERT_GT(dropped, 0u);
-  for (int threads : {1, 2, 4}) {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
-    TriangleMesh m = original;
-    EXPECT_EQ(keep_vertices(m, [&](uint32_t v) { return kept_group(v / kGroup); }), dropped) << threads;
-    expect_same(m, expected);
-  }
-  TriangleMesh all = original;
-  EXPECT_EQ(keep_vertices(all, [](uint32_t) { return true; }), 0u);
-  expect_same(all, original);
-}
-
 /// Components of kGroup vertices (strip_groups), and the mesh without the groups `dropped` says, by
 /// keep_triangles; drop_sorted must give the same from the sorted lists.
 void expect_drop_sorted_matches(std::size_t groups, const std::function<bool(std::size_t)>& dropped) {

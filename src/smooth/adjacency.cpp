@@ -92,14 +92,13 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
   return adj;
 }
 
-bool adopt_corner_lists(Adjacency& adj, std::span<const Triangle> triangles, std::span<const uint32_t> rank) {
+namespace {
+
+/// adopt_corner_lists' lists, over the neighbour lists in either form.
+template <class Neighbors>
+void fill_corner_lists(Adjacency& adj, const Neighbors& neighbors, std::span<const Triangle> triangles,
+                       std::span<const uint32_t> rank) {
   const std::size_t nv = adj.vertex_count();
-  if (adj.tri_offsets.empty()) return false;
-  std::atomic<bool> fits{true};
-  parallel_for_index(nv, 65536, [&](std::size_t i) {
-    if (adj.offsets[i + 1] - adj.offsets[i] > kMaxCornerRow) fits.store(false, std::memory_order_relaxed);
-  });
-  if (!fits.load()) return false;
   auto list_of = [&](std::size_t i) { return adj.tri_row.empty() ? i : std::size_t(adj.tri_row[i]); };
   resize_huge(adj.corner_offsets, nv + 1);
   adj.corner_offsets[0] = 0;
@@ -110,13 +109,16 @@ bool adopt_corner_lists(Adjacency& adj, std::span<const Triangle> triangles, std
   std::inclusive_scan(adj.corner_offsets.begin(), adj.corner_offsets.end(), adj.corner_offsets.begin());
   resize_huge(adj.corners, adj.corner_offsets[nv]);
   parallel_for_index(nv, 4096, [&](std::size_t i) {
-    const uint32_t r = uint32_t(list_of(i));  // vertex i in the triangles' numbering
+    const uint32_t r = uint32_t(list_of(i)), i32 = uint32_t(i);  // r: vertex i in the triangles' numbering
     const uint32_t row_begin = adj.offsets[i], row_end = adj.offsets[i + 1];
     // The slot of v (triangles' numbering) in row i, as cotan_row finds it; kNoSlot (i itself, in
     // a degenerate triangle) becomes kCornerSelf.
     auto slot_of = [&](uint32_t v) {
-      const uint32_t slot = v == r ? kNoSlot : row_slot(adj.neighbors.data(), row_begin, row_end, rank.empty() ? v : rank[v]);
-      return slot == kNoSlot ? kCornerSelf : uint8_t(slot);
+      if (v == r) return kCornerSelf;
+      const uint32_t n = rank.empty() ? v : rank[v];
+      for (uint32_t e = row_begin; e < row_end; ++e)
+        if (neighbor_at(neighbors, i32, e) == n) return uint8_t(e - row_begin);
+      return kCornerSelf;
     };
     CornerSlots* out = adj.corners.data() + adj.corner_offsets[i];
     for (uint32_t k = adj.tri_offsets[r]; k < adj.tri_offsets[r + 1]; ++k) {
@@ -125,30 +127,46 @@ bool adopt_corner_lists(Adjacency& adj, std::span<const Triangle> triangles, std
       *out++ = {slot_of(j), slot_of(l)};
     }
   });
+}
+
+}  // namespace
+
+bool corner_lists_fit(const Adjacency& adj) {
+  std::atomic<bool> fits{true};
+  parallel_for_index(adj.vertex_count(), 65536, [&](std::size_t i) {
+    if (adj.offsets[i + 1] - adj.offsets[i] > kMaxCornerRow) fits.store(false, std::memory_order_relaxed);
+  });
+  return fits.load();
+}
+
+bool adopt_corner_lists(Adjacency& adj, std::span<const Triangle> triangles, std::span<const uint32_t> rank) {
+  if (adj.tri_offsets.empty() || !corner_lists_fit(adj)) return false;
+  adj.with_neighbors([&](const auto& neighbors) { fill_corner_lists(adj, neighbors, triangles, rank); });
   UninitVector<uint32_t>().swap(adj.tri_offsets);
   UninitVector<uint32_t>().swap(adj.tri_ids);
   std::vector<uint32_t>().swap(adj.tri_row);
   return true;
 }
 
+
 namespace {
 
-/// The CSR rows (offsets, values) in a new order, row n being old row order[n], each entry through
-/// f, into (out_offsets, out_values). The row lengths in parallel (the array's first touch), then
-/// their running sum, then the rows.
-template <class T, class F>
-void permute_rows(const UninitVector<uint32_t>& offsets, const UninitVector<T>& values, std::span<const uint32_t> order,
-                  UninitVector<uint32_t>& out_offsets, UninitVector<T>& out_values, F&& f) {
+/// The CSR rows of `offsets` in a new order, row n being old row order[n], entry k of old row r
+/// given by entry(r, k), into (out_offsets, out_values). The row lengths in parallel (the array's
+/// first touch), then their running sum, then the rows.
+template <class T, class Entry>
+void permute_rows(const UninitVector<uint32_t>& offsets, std::span<const uint32_t> order,
+                  UninitVector<uint32_t>& out_offsets, UninitVector<T>& out_values, Entry&& entry) {
   const std::size_t nv = order.size();
   resize_huge(out_offsets, nv + 1);
   out_offsets[0] = 0;
   parallel_for_index(nv, 65536, [&](std::size_t n) { out_offsets[n + 1] = offsets[order[n] + 1] - offsets[order[n]]; });
   std::inclusive_scan(out_offsets.begin(), out_offsets.end(), out_offsets.begin());
-  resize_huge(out_values, values.size());
+  resize_huge(out_values, offsets[nv]);
   parallel_for_index(nv, 4096, [&](std::size_t n) {
     T* row = out_values.data() + out_offsets[n];
-    const uint32_t b = offsets[order[n]], e = offsets[order[n] + 1];
-    for (uint32_t k = b; k < e; ++k) row[k - b] = f(values[k]);
+    const uint32_t r = order[n], b = offsets[r], e = offsets[r + 1];
+    for (uint32_t k = b; k < e; ++k) row[k - b] = entry(r, k);
   });
 }
 
@@ -160,14 +178,24 @@ Adjacency renumber_adjacency(Adjacency&& adj, std::vector<uint32_t> order) {
   resize_huge(rank, nv);
   parallel_for_index(nv, 4096, [&](std::size_t n) { rank[order[n]] = uint32_t(n); });
   Adjacency out;
-  // Rows of old vertex order[n], in new order, their entries relabelled.
-  permute_rows(adj.offsets, adj.neighbors, order, out.offsets, out.neighbors, [&](uint32_t v) { return rank[v]; });
+  // Rows of old vertex order[n], in new order, their entries relabelled (compact lists read in
+  // their old rows, then compacted again in the new numbering, below).
+  const bool compact = !adj.compact.empty();
+  adj.with_neighbors([&](const auto& neighbors) {
+    permute_rows(adj.offsets, order, out.offsets, out.neighbors,
+                 [&](uint32_t r, uint32_t k) { return rank[neighbor_at(neighbors, r, k)]; });
+  });
   UninitVector<uint32_t>().swap(adj.neighbors);  // room for the corner lists' copy
+  adj.compact = {};
   UninitVector<uint32_t>().swap(rank);
   // The slots index a row's entries, which keep their order: the corner lists move with their rows.
-  if (!adj.corner_offsets.empty())
-    permute_rows(adj.corner_offsets, adj.corners, order, out.corner_offsets, out.corners,
-                 [](CornerSlots c) { return c; });
+  if (!adj.corner_offsets.empty()) {
+    permute_rows(adj.corner_offsets, order, out.corner_offsets, out.corners,
+                 [&](uint32_t, uint32_t k) { return adj.corners[k]; });
+    UninitVector<uint32_t>().swap(adj.corner_offsets);
+    UninitVector<CornerSlots>().swap(adj.corners);
+  }
+  if (compact) out.compact_neighbors();
   if (!adj.tri_offsets.empty()) {
     out.tri_offsets = std::move(adj.tri_offsets);
     out.tri_ids = std::move(adj.tri_ids);
@@ -180,10 +208,13 @@ Adjacency renumber_adjacency(Adjacency&& adj, std::vector<uint32_t> order) {
 
 Coloring color_vertices(const Adjacency& adj, int distance) { return group_by_color(greedy_colors(adj, distance)); }
 
-std::vector<uint16_t> greedy_colors(const Adjacency& adj, int distance) {
+namespace {
+
+/// greedy_colors over the neighbour lists in either form (neighbor_at).
+template <class Neighbors>
+std::vector<uint16_t> greedy_colors_of(const Adjacency& adj, const Neighbors& neighbors, int distance) {
   const std::size_t nv = adj.vertex_count();
   const uint32_t* offsets = adj.offsets.data();
-  const uint32_t* neighbors = adj.neighbors.data();
   std::vector<uint16_t> color(nv);
   // Vertex i takes the smallest colour of no vertex within `distance` coloured before it (the
   // lower-numbered ones). The first 64 colours are tracked in a register bit set (a distance-2
@@ -194,10 +225,10 @@ std::vector<uint16_t> greedy_colors(const Adjacency& adj, int distance) {
     // Calls f(k) for every vertex k within `distance` of i (some more than once, i itself too).
     auto for_each_in_reach = [&](auto&& f) {
       for (uint32_t e = offsets[i]; e < offsets[i + 1]; ++e) {
-        const uint32_t j = neighbors[e];
+        const uint32_t j = neighbor_at(neighbors, i, e);
         f(j);
         if (distance >= 2)
-          for (uint32_t g = offsets[j]; g < offsets[j + 1]; ++g) f(neighbors[g]);
+          for (uint32_t g = offsets[j]; g < offsets[j + 1]; ++g) f(neighbor_at(neighbors, j, g));
       }
     };
     // Branch-free: whether k < i is a coin toss to the branch predictor (color is zero-initialised,
@@ -222,6 +253,12 @@ std::vector<uint16_t> greedy_colors(const Adjacency& adj, int distance) {
     color[i] = c;
   }
   return color;
+}
+
+}  // namespace
+
+std::vector<uint16_t> greedy_colors(const Adjacency& adj, int distance) {
+  return adj.with_neighbors([&](const auto& neighbors) { return greedy_colors_of(adj, neighbors, distance); });
 }
 
 Coloring group_by_color(std::span<const uint16_t> color) {

@@ -61,7 +61,8 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
 /// would write a third of a gigabyte on splash 1M for the one pass that reads them
 /// (build_cotan_operator). Much cheaper than build_adjacency of the relabelled triangles, which it
 /// equals up to the order within rows. Corner lists (adopt_corner_lists) move with their rows: their
-/// slots stay valid, as the rows keep their order. The neighbour lists must not be compact yet.
+/// slots stay valid, as the rows keep their order. Compact neighbour lists come out compact again,
+/// in the new numbering.
 Adjacency renumber_adjacency(Adjacency&& adjacency, std::vector<uint32_t> order);
 
 /// Replaces the triangle lists (tri_offsets, tri_ids, tri_row: freed) by corner lists, in the same
@@ -72,6 +73,8 @@ Adjacency renumber_adjacency(Adjacency&& adjacency, std::vector<uint32_t> order)
 /// the adjacency's (empty: the same). Returns false, changing nothing, when a row is longer than
 /// kMaxCornerRow (a slot must fit a byte).
 bool adopt_corner_lists(Adjacency& adjacency, std::span<const Triangle> triangles, std::span<const uint32_t> rank);
+/// Whether every row is short enough for corner lists (kMaxCornerRow).
+bool corner_lists_fit(const Adjacency& adjacency);
 
 /// Vertices grouped into colour classes such that no two vertices of a class are within
 /// `distance` (1 or 2) edges of each other: vertices[offsets[c] .. offsets[c+1]) have colour c.

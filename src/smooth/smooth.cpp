@@ -12,6 +12,7 @@
 
 #include "common/huge_pages.hpp"
 #include "common/parallel_index.hpp"
+#include "memory_scope.hpp"
 #include "mesh/compact.hpp"
 #include "mesh/components.hpp"
 #include "mesh/packed_triangles.hpp"
@@ -293,6 +294,7 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
       std::vector<uint32_t>().swap(adj.tri_row);
       UninitVector<uint32_t>().swap(adj.corner_offsets);
       UninitVector<CornerSlots>().swap(adj.corners);
+      give_back_free_heap_pages();  // as at the end of the set-up
     }
     float w = o.relax_b;
     double energy = energy_of(adj, op, x, scratch, rank);
@@ -416,12 +418,20 @@ SmoothReport smooth_cached(std::vector<Vec3f>& x, std::vector<Triangle>& triangl
   SmoothReport report;
   {
     Adjacency adj = build_adjacency(x.size(), triangles);
+    // With corner lists, the sweeps read the rows only through them and the row functions: 2 bytes
+    // an entry will do (the adjacency's largest array; 12 bytes a vertex less). Compacted at once,
+    // in the mesh's numbering (Z-order: as near as the sweeps'), so that the set-up's peak — the
+    // triangles, their lists, the rows and the new corner lists side by side — holds them small.
+    const bool corners = corner_lists_fit(adj);
+    if (corners && o.compact_neighbors) adj.compact_neighbors();
     if (gauss_seidel) layout = sweep_layout(adj, o.renumber);
     // The corner lists first, in the mesh's numbering (a renumbering moves them with their rows):
     // the triangles and their lists are then done with before the rows are renumbered, which
     // holds two copies of the rows for a moment (the set-up's peak had been there).
-    const bool corners = adopt_corner_lists(adj, triangles, {});
-    if (corners) packed.pack();
+    if (corners) {
+      adopt_corner_lists(adj, triangles, {});  // (the rows fit: it adopts them)
+      packed.pack();
+    }
     if (renumber) {
       if (o.vertex_relax.size() == x.size()) {
         relax.resize(x.size());
@@ -431,10 +441,11 @@ SmoothReport smooth_cached(std::vector<Vec3f>& x, std::vector<Triangle>& triangl
       // Without corner lists the order becomes the adjacency's tri_row (the sweeps need only rank).
       adj = renumber_adjacency(std::move(adj), std::move(layout.order));
     }
-    // The sweeps read the rows only through the corner lists and the row functions: 2 bytes an
-    // entry will do (the adjacency's largest array; 12 bytes a vertex less).
-    if (corners && o.compact_neighbors) adj.compact_neighbors();
     if (renumber) renumbered.emplace(x, corners ? std::span<Triangle>() : std::span<Triangle>(triangles), layout.rank);
+    // The set-up freed the triangles, their lists and the rows and positions in the old numbering;
+    // where they sat in the heap (glibc serves a large block from a free one that fits, mapped
+    // or not) they would stay resident beside the sweeps' new arrays: ~8 MB of block 1M's peak.
+    give_back_free_heap_pages();
     // Vertices move little per sweep: each keeps a list of its nearby particles, refreshed only
     // when the vertex has moved too far from where the list was made.
     Cache cache;

@@ -372,6 +372,47 @@ TEST(Adjacency, CompactNeighboursReadBackEveryEntry) {
   EXPECT_EQ(checked, entries.size());
 }
 
+// The smoothing's set-up compacts the rows first, then colours, adopts corner lists and renumbers
+// them in that form: the same colours, corner lists and renumbered rows as from the full lists.
+TEST(Adjacency, CompactRowsColourAdoptAndRenumberAsTheFullOnes) {
+  const TriangleMesh sphere = perturbed_sphere(7, 0.02f, 5);
+  const std::size_t nv = sphere.vertices.size();
+  // A numbering at random: a fifth or more of the entries far (stored aside), the rest near.
+  std::vector<uint32_t> rank(nv);
+  for (std::size_t n = 0; n < nv; ++n) rank[n] = uint32_t(n);
+  std::shuffle(rank.begin(), rank.end(), std::mt19937(5));
+  std::vector<Triangle> triangles = sphere.triangles;
+  for (Triangle& t : triangles)
+    for (uint32_t& v : t) v = rank[v];
+  Adjacency full = build_adjacency(nv, triangles);
+  Adjacency compact = build_adjacency(nv, triangles);
+  ASSERT_TRUE(corner_lists_fit(compact));
+  compact.compact_neighbors();
+  ASSERT_FALSE(compact.compact.far_entry.empty());
+  ASSERT_FALSE(compact.compact.far_entry.size() == compact.entry_count());
+  for (int distance : {1, 2}) EXPECT_EQ(greedy_colors(full, distance), greedy_colors(compact, distance));
+  ASSERT_TRUE(adopt_corner_lists(full, triangles, {}));
+  ASSERT_TRUE(adopt_corner_lists(compact, triangles, {}));
+  EXPECT_TRUE(full.corner_offsets == compact.corner_offsets);
+  for (std::size_t k = 0; k < full.corners.size(); ++k) {
+    ASSERT_EQ(full.corners[k].j, compact.corners[k].j) << k;
+    ASSERT_EQ(full.corners[k].l, compact.corners[k].l) << k;
+  }
+  // Renumbered (reversed): each comes out compact, the same.
+  std::vector<uint32_t> order(nv);
+  for (std::size_t n = 0; n < nv; ++n) order[n] = uint32_t(nv - 1 - n);
+  full = renumber_adjacency(std::move(full), order);
+  compact = renumber_adjacency(std::move(compact), order);
+  ASSERT_FALSE(compact.compact.empty());
+  EXPECT_TRUE(compact.neighbors.empty());
+  full.compact_neighbors();
+  EXPECT_TRUE(full.offsets == compact.offsets);
+  EXPECT_TRUE(full.compact.delta == compact.compact.delta);
+  EXPECT_EQ(full.compact.far_entry, compact.compact.far_entry);
+  EXPECT_EQ(full.compact.far_vertex, compact.compact.far_vertex);
+  EXPECT_TRUE(full.corner_offsets == compact.corner_offsets);
+}
+
 // On a mesh numbered at random (most of its 65k vertices' neighbours far in the numbering), the
 // compact lists give the operator, W x and the B rows bit for bit, and so the whole smoothing.
 TEST(CotanOperator, CompactNeighboursGiveTheSameOperatorProductsAndSmoothing) {

@@ -42,15 +42,14 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
   CotanOperator op;
   // Every entry is written below, first by the parallel passes (no serial zeroing).
   resize_huge(op.w, adj.entry_count());
-  resize_huge(op.diag, nv);
   resize_huge(op.area, nv);
-  resize_huge(op.b_diag, nv);
   // Each vertex assembles its own row from its incident triangles: no two threads write the
   // same entry, so no atomics are needed. From the corner lists when the adjacency has them (the
   // triangles are then not read), else from the triangle lists.
   auto for_each_row = [&](auto&& row) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const auto& r) {
-      for (std::size_t iv = r.begin(); iv != r.end(); ++iv) row(uint32_t(iv), &op.diag[iv], &op.area[iv]);
+      float diag;  // summed again where needed (w_diagonal)
+      for (std::size_t iv = r.begin(); iv != r.end(); ++iv) row(uint32_t(iv), &diag, &op.area[iv]);
     });
   };
   if (!adj.corner_offsets.empty()) {
@@ -74,13 +73,6 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
   mean_area /= double(std::max<std::size_t>(nv, 1));
   const float area_floor = float(std::max(mean_area * 1e-6, 1e-30));
   parallel_for_index(nv, 16384, [&](std::size_t i) { op.area[i] = std::max(op.area[i], area_floor); });
-  adj.with_neighbors([&](const auto& neighbors) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const auto& r) {
-      for (std::size_t i = r.begin(); i != r.end(); ++i)
-        op.b_diag[i] = bilaplacian_diagonal_row(adj.offsets.data(), neighbors, op.w.data(), op.diag.data(),
-                                                op.area.data(), uint32_t(i));
-    });
-  });
   return op;
 }
 
@@ -88,7 +80,7 @@ void apply_w(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3
   adj.with_neighbors([&](const auto& neighbors) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 2048), [&](const auto& r) {
       for (std::size_t i = r.begin(); i != r.end(); ++i)
-        y[i] = apply_w_row(adj.offsets.data(), neighbors, op.w.data(), op.diag.data(), x.data(), uint32_t(i));
+        y[i] = apply_w_row(adj.offsets.data(), neighbors, op.w.data(), nullptr, x.data(), uint32_t(i));
     });
   });
 }
@@ -103,9 +95,9 @@ double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx, st
 Vec3f bilaplacian_row(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> x, uint32_t i) {
   return adj.with_neighbors([&](const auto& neighbors) {
     auto wx = [&](uint32_t k) {
-      return apply_w_row(adj.offsets.data(), neighbors, op.w.data(), op.diag.data(), x.data(), k);
+      return apply_w_row(adj.offsets.data(), neighbors, op.w.data(), nullptr, x.data(), k);
     };
-    Vec3f out = wx(i) * (op.diag[i] / op.area[i]);
+    Vec3f out = wx(i) * (w_diagonal(adj, op, i) / op.area[i]);
     for (uint32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e) {
       const uint32_t k = neighbor_at(neighbors, i, e);
       out += wx(k) * (op.w[e] / op.area[k]);

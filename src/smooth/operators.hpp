@@ -13,13 +13,27 @@
 namespace meniscus {
 
 /// W and D on the CSR pattern of an Adjacency: w[k] = W_ij for the k-th entry of row i
-/// (W_ij = cot α_ij + cot β_ij, clamped), diag[i] = W_ii = −Σ_j W_ij, area[i] = D_ii (a third
-/// of the clamped areas of the incident triangles), b_diag[i] = B_ii = Σ_k W_ik² / D_k.
+/// (W_ij = cot α_ij + cot β_ij, clamped), area[i] = D_ii (a third of the clamped areas of the
+/// incident triangles). The diagonals W_ii = −Σ_j W_ij and B_ii = Σ_k W_ik² / D_k are not stored
+/// (8 bytes a vertex of the B sweeps): they are summed again from the row where needed, to the bits
+/// the CUDA backend stores (w_diagonal, b_diagonal, bilaplacian_row_and_diagonal).
 struct CotanOperator {
-  UninitVector<float> w, diag, area, b_diag;  ///< written whole by build_cotan_operator's parallel passes
+  UninitVector<float> w, area;  ///< written whole by build_cotan_operator's parallel passes
 };
 
-/// Builds W, D and diag(B) for the current positions (parallel over vertices, no atomics), from
+/// W_ii = −Σ_j W_ij of row i.
+inline float w_diagonal(const Adjacency& adjacency, const CotanOperator& op, uint32_t i) {
+  return w_diagonal_row(adjacency.offsets.data(), op.w.data(), i);
+}
+
+/// B_ii (bilaplacian_diagonal_row).
+inline float b_diagonal(const Adjacency& adjacency, const CotanOperator& op, uint32_t i) {
+  return adjacency.with_neighbors([&](const auto& neighbors) {
+    return bilaplacian_diagonal_row(adjacency.offsets.data(), neighbors, op.w.data(), nullptr, op.area.data(), i);
+  });
+}
+
+/// Builds W and D for the current positions (parallel over vertices, no atomics), from
 /// the adjacency's corner lists when it has them (`triangles` unused), else from its triangle lists
 /// of `triangles` (in the adjacency's numbering).
 /// `rank` (old → new index), for renumbered vertices: the floor on D comes from the mean area
@@ -39,8 +53,7 @@ double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx, st
 template <class Neighbors>
 Vec3f bilaplacian_row_from_wx(const Adjacency& adj, const Neighbors& neighbors, const CotanOperator& op,
                               std::span<const Vec3f> wx, uint32_t i) {
-  return bilaplacian_row_from_wx(adj.offsets.data(), neighbors, op.w.data(), op.diag.data(), op.area.data(),
-                                 wx.data(), i);
+  return bilaplacian_row_from_wx(adj.offsets.data(), neighbors, op.w.data(), nullptr, op.area.data(), wx.data(), i);
 }
 
 /// (B x)_i for one vertex from the current x (two rings).

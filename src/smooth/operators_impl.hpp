@@ -41,25 +41,44 @@ MENISCUS_HD inline Vec3f neighbour_mean_row(const uint32_t* offsets, const Neigh
   return sum / float(e - b);
 }
 
-/// (W x)_i = W_ii x_i + Σ_j W_ij x_j.
+/// W_ii = −Σ_j W_ij of row i, summed over its entries in cotan_row_from's order: the same bits as
+/// the diagonal it returned.
+MENISCUS_HD inline float w_diagonal_row(const uint32_t* offsets, const float* w, uint32_t i) {
+  float sum = 0;
+  for (uint32_t k = offsets[i]; k < offsets[i + 1]; ++k) sum += w[k];
+  return -sum;
+}
+/// W_ii from the stored diagonal `diag` or, where the caller keeps none (null: the CPU's sweeps,
+/// 4 bytes a vertex less), summed again from the row.
+MENISCUS_HD inline float w_diagonal(const uint32_t* offsets, const float* w, const float* diag, uint32_t i) {
+  return diag != nullptr ? diag[i] : w_diagonal_row(offsets, w, i);
+}
+/// (W x)_i = W_ii x_i + Σ_j W_ij x_j (`diag`: as w_diagonal takes it).
 template <class Neighbors>
 MENISCUS_HD inline Vec3f apply_w_row(const uint32_t* offsets, const Neighbors& neighbors, const float* w,
                                      const float* diag, const Vec3f* x, uint32_t i) {
-  Vec3f acc = x[i] * diag[i];
+  Vec3f acc = x[i] * w_diagonal(offsets, w, diag, i);
   for (uint32_t k = offsets[i]; k < offsets[i + 1]; ++k) acc += x[neighbor_at(neighbors, i, k)] * w[k];
   return acc;
 }
 
-/// (B x)_i given wx = W x: Σ_k W_ik / D_k (W x)_k over i and its ring.
+/// (B x)_i given wx = W x and W_ii: Σ_k W_ik / D_k (W x)_k over i and its ring.
 template <class Neighbors>
-MENISCUS_HD inline Vec3f bilaplacian_row_from_wx(const uint32_t* offsets, const Neighbors& neighbors, const float* w,
-                                                 const float* diag, const float* area, const Vec3f* wx, uint32_t i) {
-  Vec3f out = wx[i] * (diag[i] / area[i]);
+MENISCUS_HD inline Vec3f bilaplacian_row_from_wx_diagonal(const uint32_t* offsets, const Neighbors& neighbors,
+                                                          const float* w, float w_ii, const float* area,
+                                                          const Vec3f* wx, uint32_t i) {
+  Vec3f out = wx[i] * (w_ii / area[i]);
   for (uint32_t e = offsets[i]; e < offsets[i + 1]; ++e) {
     const uint32_t k = neighbor_at(neighbors, i, e);
     out += wx[k] * (w[e] / area[k]);
   }
   return out;
+}
+/// (B x)_i given wx = W x: as above (`diag`: as w_diagonal takes it).
+template <class Neighbors>
+MENISCUS_HD inline Vec3f bilaplacian_row_from_wx(const uint32_t* offsets, const Neighbors& neighbors, const float* w,
+                                                 const float* diag, const float* area, const Vec3f* wx, uint32_t i) {
+  return bilaplacian_row_from_wx_diagonal(offsets, neighbors, w, w_diagonal(offsets, w, diag, i), area, wx, i);
 }
 
 /// One incident triangle (i, j, l) of a vertex i, its corners in the triangle's order, with the
@@ -160,18 +179,40 @@ MENISCUS_HD inline void cotan_row_corners(const uint32_t* offsets, const Neighbo
   }, x, i, w, diag, area);
 }
 
-/// B_ii = W_ii² / D_i + Σ_k W_ik² / D_k; a unit diagonal for an isolated or broken row.
+/// B_ii = W_ii² / D_i + Σ_k W_ik² / D_k, each term as (W_ik / D_k) · W_ik — the quotient (B x)_i
+/// also takes (bilaplacian_row_and_diagonal sums both in one pass, to the same bits); a unit
+/// diagonal for an isolated or broken row (`diag`: as w_diagonal takes it).
+MENISCUS_HD inline float bilaplacian_diagonal_or_one(float b) { return b > 0 && b - b == 0.0f ? b : 1.0f; }
 template <class Neighbors>
 MENISCUS_HD inline float bilaplacian_diagonal_row(const uint32_t* offsets, const Neighbors& neighbors, const float* w,
                                                   const float* diag, const float* area, uint32_t i) {
-  float b = diag[i] * diag[i] / area[i];
+  const float d = w_diagonal(offsets, w, diag, i);
+  float b = d / area[i] * d;
   for (uint32_t k = offsets[i]; k < offsets[i + 1]; ++k) {
     const float wik = w[k];
-    b += wik * wik / area[neighbor_at(neighbors, i, k)];
+    b += wik / area[neighbor_at(neighbors, i, k)] * wik;
   }
-  return b > 0 && b - b == 0.0f ? b : 1.0f;
+  return bilaplacian_diagonal_or_one(b);
 }
-
+/// (B x)_i given wx = W x and W_ii (bilaplacian_row_from_wx_diagonal), and B_ii in *b_ii
+/// (bilaplacian_diagonal_row), in one pass over the row: the CPU's sweeps keep no B_ii (4 bytes a
+/// vertex), for the cost of a multiply-add an entry.
+template <class Neighbors>
+MENISCUS_HD inline Vec3f bilaplacian_row_and_diagonal(const uint32_t* offsets, const Neighbors& neighbors,
+                                                      const float* w, float w_ii, const float* area, const Vec3f* wx,
+                                                      uint32_t i, float* b_ii) {
+  const float t_i = w_ii / area[i];
+  Vec3f out = wx[i] * t_i;
+  float b = t_i * w_ii;
+  for (uint32_t e = offsets[i]; e < offsets[i + 1]; ++e) {
+    const uint32_t k = neighbor_at(neighbors, i, e);
+    const float t = w[e] / area[k];
+    out += wx[k] * t;
+    b += t * w[e];
+  }
+  *b_ii = bilaplacian_diagonal_or_one(b);
+  return out;
+}
 /// One vertex's term of the energy xᵀBx = Σ_k |(W x)_k|² / D_k.
 MENISCUS_HD inline double energy_term(Vec3f wx, float area) { return double(length2(wx)) / double(area); }
 

@@ -317,11 +317,15 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
         // of that ring — no two vertices of a distance-2 colour class share a ring vertex.
         for_each_in_colors(layout->b, [&](uint32_t i) {
           const Vec3f before = x[i];
-          x[i] -= bilaplacian_row_from_wx(adj, neighbors, op, scratch, i) * (w * vertex_factor(i) / op.b_diag[i]);
+          const float w_ii = w_diagonal(adj, op, i);
+          float b_ii;
+          const Vec3f bx = bilaplacian_row_and_diagonal(adj.offsets.data(), neighbors, op.w.data(), w_ii,
+                                                        op.area.data(), scratch.data(), i, &b_ii);
+          x[i] -= bx * (w * vertex_factor(i) / b_ii);
           if (constrained) project(i, before);
           undo.record(i, before, x[i]);
           const Vec3f delta = x[i] - before;
-          scratch[i] += delta * op.diag[i];
+          scratch[i] += delta * w_ii;
           for (uint32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e)
             scratch[neighbor_at(neighbors, i, e)] += delta * op.w[e];
         }, [&](uint32_t i) {
@@ -342,7 +346,7 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
         apply_w(adj, op, z, next);  // next = B x
         for_each_vertex(nv, [&](uint32_t i) {
           const Vec3f from = x[i];
-          x[i] -= next[i] * (w * vertex_factor(i) / op.b_diag[i]);
+          x[i] -= next[i] * (w * vertex_factor(i) / b_diagonal(adj, op, i));
           if (constrained) project(i, from);
         });
       }

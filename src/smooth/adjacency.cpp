@@ -114,11 +114,8 @@ void fill_corner_lists(Adjacency& adj, const Neighbors& neighbors, std::span<con
     // The slot of v (triangles' numbering) in row i, as cotan_row finds it; kNoSlot (i itself, in
     // a degenerate triangle) becomes kCornerSelf.
     auto slot_of = [&](uint32_t v) {
-      if (v == r) return kCornerSelf;
-      const uint32_t n = rank.empty() ? v : rank[v];
-      for (uint32_t e = row_begin; e < row_end; ++e)
-        if (neighbor_at(neighbors, i32, e) == n) return uint8_t(e - row_begin);
-      return kCornerSelf;
+      const uint32_t slot = v == r ? kNoSlot : row_slot(neighbors, i32, row_begin, row_end, rank.empty() ? v : rank[v]);
+      return slot == kNoSlot ? kCornerSelf : uint8_t(slot);
     };
     CornerSlots* out = adj.corners.data() + adj.corner_offsets[i];
     for (uint32_t k = adj.tri_offsets[r]; k < adj.tri_offsets[r + 1]; ++k) {

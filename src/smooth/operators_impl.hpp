@@ -62,23 +62,17 @@ MENISCUS_HD inline Vec3f apply_w_row(const uint32_t* offsets, const Neighbors& n
   return acc;
 }
 
-/// (B x)_i given wx = W x and W_ii: Σ_k W_ik / D_k (W x)_k over i and its ring.
+/// (B x)_i given wx = W x: Σ_k W_ik / D_k (W x)_k over i and its ring (`diag`: as w_diagonal
+/// takes it).
 template <class Neighbors>
-MENISCUS_HD inline Vec3f bilaplacian_row_from_wx_diagonal(const uint32_t* offsets, const Neighbors& neighbors,
-                                                          const float* w, float w_ii, const float* area,
-                                                          const Vec3f* wx, uint32_t i) {
-  Vec3f out = wx[i] * (w_ii / area[i]);
+MENISCUS_HD inline Vec3f bilaplacian_row_from_wx(const uint32_t* offsets, const Neighbors& neighbors, const float* w,
+                                                 const float* diag, const float* area, const Vec3f* wx, uint32_t i) {
+  Vec3f out = wx[i] * (w_diagonal(offsets, w, diag, i) / area[i]);
   for (uint32_t e = offsets[i]; e < offsets[i + 1]; ++e) {
     const uint32_t k = neighbor_at(neighbors, i, e);
     out += wx[k] * (w[e] / area[k]);
   }
   return out;
-}
-/// (B x)_i given wx = W x: as above (`diag`: as w_diagonal takes it).
-template <class Neighbors>
-MENISCUS_HD inline Vec3f bilaplacian_row_from_wx(const uint32_t* offsets, const Neighbors& neighbors, const float* w,
-                                                 const float* diag, const float* area, const Vec3f* wx, uint32_t i) {
-  return bilaplacian_row_from_wx_diagonal(offsets, neighbors, w, w_diagonal(offsets, w, diag, i), area, wx, i);
 }
 
 /// One incident triangle (i, j, l) of a vertex i, its corners in the triangle's order, with the
@@ -115,12 +109,14 @@ MENISCUS_HD inline void cotan_row_from(uint32_t row_begin, uint32_t row_end, uin
   *area = a / 3.0f;
 }
 
-/// v's slot in the row neighbors[row_begin .. row_end) (six or seven entries; in any order —
-/// renumbered rows keep the order of the original numbering), kNoSlot when it is not there (the
-/// vertex itself, a corner repeated in a degenerate triangle).
-MENISCUS_HD inline uint32_t row_slot(const uint32_t* neighbors, uint32_t row_begin, uint32_t row_end, uint32_t v) {
+/// v's slot in row i, entries [row_begin .. row_end) of `neighbors` in either form (neighbor_at;
+/// six or seven entries, in any order — renumbered rows keep the order of the original numbering),
+/// kNoSlot when it is not there (the vertex itself, a corner repeated in a degenerate triangle).
+template <class Neighbors>
+MENISCUS_HD inline uint32_t row_slot(const Neighbors& neighbors, uint32_t i, uint32_t row_begin, uint32_t row_end,
+                                     uint32_t v) {
   for (uint32_t e = row_begin; e < row_end; ++e)
-    if (neighbors[e] == v) return e - row_begin;
+    if (neighbor_at(neighbors, i, e) == v) return e - row_begin;
   return kNoSlot;
 }
 
@@ -140,8 +136,8 @@ MENISCUS_HD inline void cotan_row(const MeshRows& m, const Vec3f* x, uint32_t i,
   cotan_row_from(row_begin, row_end, m.tri_offsets[r + 1] - first, [&](uint32_t k) {
     CotanCorners c;
     corners_after(m.triangles + 3 * std::size_t(m.tri_ids[first + k]), i, &c.j, &c.l);
-    c.slot_j = row_slot(m.neighbors, row_begin, row_end, c.j);
-    c.slot_l = row_slot(m.neighbors, row_begin, row_end, c.l);
+    c.slot_j = row_slot(m.neighbors, i, row_begin, row_end, c.j);
+    c.slot_l = row_slot(m.neighbors, i, row_begin, row_end, c.l);
     return c;
   }, x, i, w, diag, area);
 }
@@ -194,7 +190,7 @@ MENISCUS_HD inline float bilaplacian_diagonal_row(const uint32_t* offsets, const
   }
   return bilaplacian_diagonal_or_one(b);
 }
-/// (B x)_i given wx = W x and W_ii (bilaplacian_row_from_wx_diagonal), and B_ii in *b_ii
+/// (B x)_i given wx = W x and W_ii (bilaplacian_row_from_wx), and B_ii in *b_ii
 /// (bilaplacian_diagonal_row), in one pass over the row: the CPU's sweeps keep no B_ii (4 bytes a
 /// vertex), for the cost of a multiply-add an entry.
 template <class Neighbors>

@@ -346,7 +346,9 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
         apply_w(adj, op, z, next);  // next = B x
         for_each_vertex(nv, [&](uint32_t i) {
           const Vec3f from = x[i];
-          x[i] -= next[i] * (w * vertex_factor(i) / b_diagonal(adj, op, i));
+          x[i] -= next[i] * (w * vertex_factor(i) /
+                             bilaplacian_diagonal_row(adj.offsets.data(), neighbors, op.w.data(), nullptr,
+                                                      op.area.data(), i));
           if (constrained) project(i, from);
         });
       }

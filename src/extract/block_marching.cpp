@@ -8,6 +8,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cstring>
 #include <memory>
 #include <span>
 #include <stdexcept>
@@ -76,6 +77,24 @@ class BlockWeld {
 };
 
 }  // namespace
+
+CrossingTable::CrossingTable(const LatticeEdge* types, uint64_t used, int padded) {
+  for (int t = 0; t < 64; ++t) {
+    if (!(used >> t & 1)) continue;
+    const LatticeEdge& e = types[t];
+    const int offset = (e.dz * padded + e.dy) * padded + e.dx;
+    int k = 0;
+    while (k < count_ && offset_[k] != offset) ++k;
+    if (k == count_) {
+      if (count_ == kMaxOffsets) throw std::logic_error("CrossingTable: more far-cell offsets than a canonical edge has");
+      offset_[count_++] = offset;
+    }
+    for (int m = 0; m < 256; ++m) {
+      if (m >> e.s0 & 1) near_[m] |= uint64_t(1) << t;
+      if (m >> e.s1 & 1) far_[k][m] |= uint64_t(1) << t;
+    }
+  }
+}
 
 std::vector<uint8_t> cell_inside_masks(const SparseField& field, float iso) {
   const int spc = field.lattice().samples_per_cell();
@@ -183,13 +202,20 @@ bool gather_inside_masks(const SparseField& field, std::span<const uint8_t> cell
 }
 
 MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stencil, BlockKernel kernel,
-                            uint32_t max_triangles_per_cell) {
+                            uint32_t max_triangles_per_cell, uint64_t used_types) {
   const std::vector<uint8_t> cell_masks = cell_inside_masks(field, iso);
   const std::vector<Vec3i> blocks = blocks_to_march(field, cell_masks, full_stencil);
   MarchedCorners out;
   out.block_cells = field.lattice().block_cells();
   out.codes = BlockEdgeCodes::of(field.lattice());
+  const bool a15 = field.lattice().kind == SampleLattice::Kind::a15;
+  out.edge_types = a15 ? kA15EdgeTable.types : kKuhnEdgeTable.types;
+  out.used_types = used_types;
+  out.crossing_bytes = a15 ? 8 : 1;
   const int n = out.block_cells;
+  const CrossingTable crossing(out.edge_types, used_types, n + 2);
+  const std::size_t crossing_block = std::size_t(n) * std::size_t(n) * std::size_t(n) * std::size_t(out.crossing_bytes);
+  constexpr std::size_t kCrossingPage = std::size_t(1) << 20;
   out.origins.resize(blocks.size());
   for (std::size_t b = 0; b < blocks.size(); ++b) out.origins[b] = {blocks[b].x * n, blocks[b].y * n, blocks[b].z * n};
 
@@ -203,7 +229,8 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
   struct Writer {
     std::vector<std::unique_ptr<uint16_t[]>> edge_pages;
     std::vector<std::unique_ptr<uint16_t[]>> corner_pages;
-    std::size_t edges_used = 0, corners_used = 0;
+    std::vector<std::unique_ptr<uint8_t[]>> crossing_pages;
+    std::size_t edges_used = 0, corners_used = 0, crossings_used = 0;
     std::vector<uint16_t> codes;  // the block's corner codes as its kernel wrote them
     BlockWeld weld;
   };
@@ -215,12 +242,36 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
   });
   out.block_edges.assign(blocks.size(), nullptr);
   out.block_corners.assign(blocks.size(), nullptr);
+  out.block_crossings.assign(blocks.size(), nullptr);
   std::vector<uint64_t> triangle_offsets(blocks.size() + 1, 0), edge_offsets(blocks.size() + 1, 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size()), [&](const tbb::blocked_range<std::size_t>& r) {
     PaddedMasks masks;  // one per task, on the stack: no allocation in the loop
     Writer& w = writers.local();
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
       if (!gather_inside_masks(field, cell_masks, blocks[b], masks)) continue;
+      // The crossing edges of the block's own cells (their far ends lie in the halo), written to
+      // the page as they come and kept only if one crosses: a block without triangles may still
+      // own edges its neighbours' tetrahedra cross.
+      if (w.crossing_pages.empty() || w.crossings_used + crossing_block > kCrossingPage) {
+        w.crossing_pages.push_back(std::make_unique_for_overwrite<uint8_t[]>(kCrossingPage));
+        w.crossings_used = 0;
+      }
+      uint8_t* cross = w.crossing_pages.back().get() + w.crossings_used;
+      uint64_t any = 0;
+      for (int z = 0, cell = 0; z < n; ++z)
+        for (int y = 0; y < n; ++y)
+          for (int x = 0; x < n; ++x, ++cell) {
+            const uint64_t bits = crossing(masks.at(x, y, z));
+            any |= bits;
+            if (a15)
+              std::memcpy(cross + 8 * cell, &bits, 8);
+            else
+              cross[cell] = uint8_t(bits);
+          }
+      if (any != 0) {
+        out.block_crossings[b] = cross;
+        w.crossings_used += crossing_block;
+      }
       const uint32_t triangles = kernel(masks, w.codes.data());
       if (triangles > max_triangles_per_cell * uint32_t(n * n * n))
         throw std::logic_error("march_blocks: a block wrote more triangles than its cells can have");
@@ -255,6 +306,7 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
   for (Writer& w : writers) {
     for (auto& page : w.edge_pages) out.edge_pages.push_back(std::move(page));
     for (auto& page : w.corner_pages) out.corner_pages.push_back(std::move(page));
+    for (auto& page : w.crossing_pages) out.crossing_pages.push_back(std::move(page));
   }
   return out;
 }

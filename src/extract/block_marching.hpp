@@ -58,12 +58,36 @@ bool gather_inside_masks(const SparseField& field, std::span<const uint8_t> cell
 /// (on splash 1M the decode was about a third of the weld's time).
 using BlockKernel = uint32_t (*)(const PaddedMasks& masks, uint16_t* out);
 
+/// Which edges of a padded block's cells cross the surface, from the inside masks alone: for each
+/// edge type in `used` (of the lattice's `types`), whether its end samples' bits differ. One
+/// table lookup for the cell's own samples and one per distinct far-cell offset (at most 14), each
+/// giving the bits of all the types with that offset at once, instead of a test per type.
+class CrossingTable {
+ public:
+  CrossingTable(const LatticeEdge* types, uint64_t used, int padded);
+  /// The crossing mask (bit t: the edge of type t based at this cell crosses) of the cell whose
+  /// mask is at `m` in a PaddedMasks with `padded` cells a side.
+  uint64_t operator()(const uint8_t* m) const {
+    uint64_t bits = near_[*m];
+    for (int k = 0; k < count_; ++k) bits ^= far_[k][m[offset_[k]]];  // disjoint types: ^ is |
+    return bits;
+  }
+
+ private:
+  static constexpr int kMaxOffsets = 14;  // d ∈ {-1, 0, 1}³ after (z, y, x, s) canonical order
+  int count_ = 0;
+  int offset_[kMaxOffsets] = {};
+  uint64_t near_[256] = {};            // per own mask: the used types whose first sample is inside
+  uint64_t far_[kMaxOffsets][256] = {};  // per offset and far mask: those whose second sample is
+};
+
 /// Runs `kernel` over blocks_to_march in one pass (each thread into its own pages, see
 /// MarchedCorners) and returns the corners of all triangles, 3 per triangle, with the blocks'
-/// triangle offsets and cell origins — the same for any number of threads. A cell yields at most
+/// triangle offsets and cell origins, and the crossing edges (of the types in `used_types`) of
+/// every block's own cells — the same for any number of threads. A cell yields at most
 /// `max_triangles_per_cell` triangles.
 MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stencil, BlockKernel kernel,
-                            uint32_t max_triangles_per_cell);
+                            uint32_t max_triangles_per_cell, uint64_t used_types);
 
 /// The code deltas of a tile's tetrahedron edges (TileEdgeTable), for blocks coded by `codes`:
 /// the word tables of the CPU's block kernels (marching_impl.hpp takes them as `delta(t, e)`).

@@ -51,6 +51,11 @@ constexpr auto build_cube_edge_key_deltas() {
 }
 inline constexpr auto kCubeEdgeKeyDeltas = build_cube_edge_key_deltas();
 
+/// The cubic-lattice edge types Marching Cubes keys its vertices by: the 3 axes.
+inline constexpr uint64_t kCubeEdgeTypes = (uint64_t(1) << cubic_edge_type(1, 0, 0)) |
+                                           (uint64_t(1) << cubic_edge_type(0, 1, 0)) |
+                                           (uint64_t(1) << cubic_edge_type(0, 0, 1));
+
 /// Upper bound of triangles per cube case (the generator checks the real maximum fits).
 inline constexpr int kCubeMaxTriangles = 5;
 

@@ -7,11 +7,13 @@
 #pragma once
 
 #include <cstdint>
+#include <cstring>
 #include <memory>
 #include <span>
 #include <vector>
 
 #include "extract/edge_key.hpp"
+#include "extract/tile_table.hpp"
 #include "field/sparse_field.hpp"
 
 namespace meniscus {
@@ -64,6 +66,28 @@ struct MarchedCorners {
   std::vector<Vec3i> origins;                  ///< first cell of each marched block
   int block_cells = 0;
   BlockEdgeCodes codes;
+  /// The lattice's edge types (kA15EdgeTable.types or kKuhnEdgeTable.types) and which of them the
+  /// extractor's cells use (Marching Cubes: the 3 axes of the 7 cubic ones).
+  const LatticeEdge* edge_types = nullptr;
+  uint64_t used_types = 0;
+  /// The crossing edges based in each block's own cells, the weld's vertices: block_cells³ masks
+  /// in cell order (z, y, x), bit t of cell c's set when the edge of type t based at c has one end
+  /// inside and one outside. 8-byte masks on the A15 lattice (54 types), 1-byte on the cubic one
+  /// (7), so 512 bytes a block either way; null for a block none of whose own edges cross. A
+  /// crossing edge is a corner of every tetrahedron or cube around it, so these are exactly the
+  /// distinct edges of all the corners, counted without sorting them.
+  std::vector<std::unique_ptr<uint8_t[]>> crossing_pages;
+  std::vector<const uint8_t*> block_crossings;  ///< #blocks
+  int crossing_bytes = 8;                       ///< bytes per cell mask: 8 (A15) or 1 (cubic)
+
+  /// Cell `cell`'s crossing mask in block b (whose block_crossings[b] is not null).
+  uint64_t crossings(std::size_t b, std::size_t cell) const {
+    const uint8_t* m = block_crossings[b];
+    if (crossing_bytes == 1) return m[cell];
+    uint64_t bits;
+    std::memcpy(&bits, m + 8 * cell, 8);
+    return bits;
+  }
 
   std::size_t corner_count() const { return triangle_offsets.empty() ? 0 : 3 * std::size_t(triangle_offsets.back()); }
   std::size_t edge_count() const { return edge_offsets.empty() ? 0 : std::size_t(edge_offsets.back()); }

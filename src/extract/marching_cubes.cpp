@@ -6,7 +6,8 @@
 namespace meniscus {
 
 MarchedCorners march_cubes(const SparseField& field, float iso) {
-  return march_blocks(field, iso, /*full_stencil=*/false, march_cubic_block<march_cube_codes>, kCubeMaxTriangles);
+  return march_blocks(field, iso, /*full_stencil=*/false, march_cubic_block<march_cube_codes>, kCubeMaxTriangles,
+                      kCubeEdgeTypes);
 }
 
 }  // namespace meniscus

@@ -6,7 +6,8 @@
 namespace meniscus {
 
 MarchedCorners march_tetrahedra(const SparseField& field, float iso) {
-  return march_blocks(field, iso, /*full_stencil=*/false, march_cubic_block<march_kuhn_codes>, 12);
+  return march_blocks(field, iso, /*full_stencil=*/false, march_cubic_block<march_kuhn_codes>, 12,
+                      (uint64_t(1) << kCubicEdgeTypeCount) - 1);
 }
 
 }  // namespace meniscus

@@ -35,7 +35,8 @@ uint32_t march_tile_block(const PaddedMasks& masks, uint16_t* out) {
 }  // namespace
 
 MarchedCorners march_tiles(const SparseField& field, float iso) {
-  return march_blocks(field, iso, /*full_stencil=*/true, march_tile_block, 2 * kA15TetCount);
+  return march_blocks(field, iso, /*full_stencil=*/true, march_tile_block, 2 * kA15TetCount,
+                      (uint64_t(1) << kA15EdgeTypeCount) - 1);
 }
 
 }  // namespace meniscus

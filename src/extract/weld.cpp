@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <climits>
+#include <functional>
 #include <bit>
 #include <stdexcept>
 #include <vector>
@@ -77,17 +78,6 @@ struct DenseEdgeKeys {
       : DenseEdgeKeys((keys.size() + kChunk - 1) / kChunk, [&](std::size_t i) {
           return keys.subspan(i * kChunk, std::min(kChunk, keys.size() - i * kChunk));
         }) {}
-  /// From the blocks alone, without reading the corners: every edge a block marched has its base
-  /// cell within 2 cells of the block (march_blocks checks it), so the blocks with triangles,
-  /// widened by 2, bound every key.
-  explicit DenseEdgeKeys(const MarchedCorners& m) : DenseEdgeKeys(marched_box(m)) {}
-  static Box marched_box(const MarchedCorners& m) {
-    Box box;
-    const Vec3i pad{2, 2, 2}, far{m.block_cells + 1, m.block_cells + 1, m.block_cells + 1};
-    for (std::size_t b = 0; b < m.origins.size(); ++b)
-      if (m.triangle_offsets[b + 1] > m.triangle_offsets[b]) box.add(m.origins[b] - pad, m.origins[b] + far);
-    return box;
-  }
   static constexpr std::size_t kChunk = 4096;
   uint64_t dense(uint64_t key) const {
     const Vec3i c = edge_key_cell(key);
@@ -279,63 +269,166 @@ void weld_packed(std::vector<uint64_t>& corner_keys, const DenseEdgeKeys& dense,
   compute_vertices(vertex_keys, dense, field, iso, mesh);
 }
 
-/// With the block structure of the marching (the usual case): each block has already merged its
-/// own corners on the same edge (MarchedCorners), so only the blocks' distinct edges — about a
-/// fifth of the corners — go through the global sort, and every corner then reads its vertex
-/// through its block's entry. Same vertices in the same (key) order as weld_packed, with a fifth of
-/// the sorting and without the sort's scratch copy of all corners.
-void weld_blocks(MarchedCorners& m, const DenseEdgeKeys& dense, const SparseField& field, float iso,
-                 TriangleMesh& mesh) {
-  const std::size_t blocks = m.origins.size(), entries = m.edge_count();
-  const int index_bits = index_bits_for(entries);
-  std::vector<uint64_t> packed;
-  resize_populated(packed, entries);
-  resize_populated(mesh.triangles, m.corner_count() / 3);
-  uint32_t* entry_of = corner_data(mesh.triangles);  // per corner: its global entry, then its vertex
-  // Dense keys are linear in the base cell: an edge's is its block's base cell's (the block's first
-  // cell − 2) plus the offset of its cell within the block's span, looked up by the code's cell,
-  // plus its type — the same key as dense(edge_key(b, code)) without decoding the code by division.
-  const BlockEdgeCodes codes = m.codes;
-  const std::size_t span = std::size_t(codes.span);
-  std::vector<uint64_t> cell_offset(span * span * span);
-  for (std::size_t z = 0; z < span; ++z)
-    for (std::size_t y = 0; y < span; ++y)
-      for (std::size_t x = 0; x < span; ++x) cell_offset[(z * span + y) * span + x] = ((z * dense.ny + y) * dense.nx + x) * 64;
-  const uint16_t type_mask = uint16_t((1u << codes.type_bits) - 1);
+/// With the block structure of the marching (the usual case): the vertices are the crossing edges
+/// (MarchedCorners::block_crossings), numbered in key order — by the (z, y, x, type) of their base
+/// cell — straight from per-row counts, without sorting any key. A block's cells form n² rows of
+/// n cells; the key order runs over the rows of one z-slab of blocks (blocks with equal z, in
+/// (y, x) order, as blocks_to_march sorts them) row z by row y by block x. So a prefix sum over
+/// the slabs, then over each slab's rows, gives every row's first vertex, and a crossing edge's
+/// vertex is its row's first plus the popcounts of the crossing masks before it. Each block then
+/// numbers its own distinct edges (their base cells lie in it or a neighbour, whose rows are
+/// known), writes its triangles' corners and the positions of the vertices its cells own. Same
+/// mesh as sorting all the corners' keys (weld_packed; tested), without the sort, its scratch
+/// copy, the packed keys or the per-vertex key array, and the positions are computed where the
+/// block's field values are at hand: splash 1M's weld 0.61-0.68 -> 0.30-0.45 s (0.10-0.25 of it
+/// faulting in the mesh's arrays), its extraction's peak 1003 -> 949 MB (bench/RESULTS.md).
+void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, ExtractResult& result) {
+  TriangleMesh& mesh = result.mesh;
+  const std::size_t blocks = m.origins.size();
+  const int n = m.block_cells;
+  const int shift = std::countr_zero(unsigned(n));
+  const std::size_t rows = std::size_t(n) * std::size_t(n);
+
+  // Each row's count of crossing edges, then (in place) its first vertex number.
+  std::vector<uint32_t> row_start(blocks * rows, 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
-      const std::size_t base = m.edge_offsets[b];
-      const std::span<const uint16_t> edges = m.edges(b);
-      if (!edges.empty()) {
-        const uint64_t block_key = dense.dense(edge_key(m.origins[b] - Vec3i{2, 2, 2}, 0));
-        for (std::size_t e = 0; e < edges.size(); ++e) {
-          const uint16_t code = edges[e];
-          const uint64_t key = block_key + cell_offset[code >> codes.type_bits] + (code & type_mask);
-          packed[base + e] = (key << index_bits) | (base + e);
-        }
+      if (m.block_crossings[b] == nullptr) continue;
+      for (std::size_t row = 0; row < rows; ++row) {
+        uint32_t count = 0;
+        for (int x = 0; x < n; ++x) count += uint32_t(std::popcount(m.crossings(b, row * n + x)));
+        row_start[b * rows + row] = count;
       }
-      uint32_t* out = entry_of + 3 * m.triangle_offsets[b];
-      for (const uint16_t c : m.corners(b)) *out++ = c + uint32_t(base);
     }
   });
-  m.edge_pages.clear();  // every entry is in `packed` now, every corner in `entry_of`
-  m.corner_pages.clear();
-  m.block_edges.clear();
-  m.block_corners.clear();
-  // The pages sat in the heap among other blocks (HeapReuseScope): the sort's scratch and the
-  // vertex arrays below did not fit in their holes and were placed above them, so they stayed
-  // resident beside them. Given back: block 1M's extraction peak 177 -> 165 MB RSS (bench),
-  // splash 1M's 1010 -> 1004 MB (CLI); the extract stage within the noise (+2 % over 4 pairs).
+  std::vector<std::size_t> slab_first{0};
+  for (std::size_t b = 1; b < blocks; ++b)
+    if (m.origins[b].z != m.origins[b - 1].z) slab_first.push_back(b);
+  slab_first.push_back(blocks);
+  const std::size_t slabs = slab_first.size() - 1;
+  std::vector<uint64_t> slab_start(slabs + 1, 0);
+  tbb::parallel_for(std::size_t(0), slabs, [&](std::size_t s) {
+    uint64_t total = 0;
+    for (std::size_t i = slab_first[s] * rows; i < slab_first[s + 1] * rows; ++i) total += row_start[i];
+    slab_start[s + 1] = total;
+  });
+  for (std::size_t s = 0; s < slabs; ++s) slab_start[s + 1] += slab_start[s];
+  check_vertex_count(slab_start.back());
+  tbb::parallel_for(std::size_t(0), slabs, [&](std::size_t s) {
+    uint64_t next = slab_start[s];
+    for (int z = 0; z < n; ++z)
+      for (std::size_t g = slab_first[s], g_end; g < slab_first[s + 1]; g = g_end) {
+        g_end = g + 1;  // the blocks of one y, in x order
+        while (g_end < slab_first[s + 1] && m.origins[g_end].y == m.origins[g].y) ++g_end;
+        for (int y = 0; y < n; ++y)
+          for (std::size_t b = g; b < g_end; ++b) {
+            uint32_t& row = row_start[b * rows + std::size_t(z) * n + std::size_t(y)];
+            const uint32_t count = row;
+            row = uint32_t(next);
+            next += count;
+          }
+      }
+  });
+
+  // A code's cell (BlockEdgeCodes: relative to the block's first cell - 2) as the block holding
+  // it, one of the 27 around (slot (z + 1)·9 + (y + 1)·3 + x + 1), and the cell's index there.
+  const BlockEdgeCodes codes = m.codes;
+  struct CellRef {
+    uint8_t slot;
+    uint16_t cell;
+  };
+  std::vector<CellRef> cell_ref(std::size_t(codes.span) * codes.span * codes.span);
+  for (int z = 0, i = 0; z < codes.span; ++z)
+    for (int y = 0; y < codes.span; ++y)
+      for (int x = 0; x < codes.span; ++x, ++i) {
+        const Vec3i c{x - 2, y - 2, z - 2};
+        const Vec3i o{c.x >> shift, c.y >> shift, c.z >> shift};  // -1, 0 or 1
+        const Vec3i l{c.x - o.x * n, c.y - o.y * n, c.z - o.z * n};
+        cell_ref[std::size_t(i)] = {uint8_t((o.z + 1) * 9 + (o.y + 1) * 3 + o.x + 1),
+                                    uint16_t((l.z * n + l.y) * n + l.x)};
+      }
+  const uint16_t type_mask = uint16_t((1u << codes.type_bits) - 1);
+  std::vector<uint64_t> keys(blocks);
+  for (std::size_t b = 0; b < blocks; ++b) {
+    const Vec3i o = m.origins[b];
+    keys[b] = pack_coords(o.x >> shift, o.y >> shift, o.z >> shift);
+  }
+  const CellIndex index(keys);
+  auto slot_offset = [](int slot) { return Vec3i{slot % 3 - 1, slot / 3 % 3 - 1, slot / 9 - 1}; };
+
+  resize_populated(mesh.triangles, m.corner_count() / 3);
+  resize_huge(mesh.vertices, std::size_t(slab_start.back()));
+  const SampleLattice& lattice = field.lattice();
+  const std::size_t repeated = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, blocks), std::size_t(0),
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t acc) {
+        std::vector<uint32_t> vertex_of;  // per distinct edge of the block
+        for (std::size_t b = r.begin(); b != r.end(); ++b) {
+          const Vec3i block{m.origins[b].x >> shift, m.origins[b].y >> shift, m.origins[b].z >> shift};
+          std::array<uint32_t, 27> around;  // marched-block index per slot, looked up when first used
+          around.fill(kNotFound - 1);
+          auto neighbour = [&](int slot) {
+            if (around[slot] == kNotFound - 1) around[slot] = index.find(block + slot_offset(slot));
+            return around[slot];
+          };
+          const std::span<const uint16_t> edges = m.edges(b);
+          if (!edges.empty()) {
+            vertex_of.resize(edges.size());
+            for (std::size_t e = 0; e < edges.size(); ++e) {
+              const CellRef ref = cell_ref[edges[e] >> codes.type_bits];
+              const int type = edges[e] & type_mask;
+              const uint32_t owner = neighbour(ref.slot);
+              // Every corner's edge crosses, and the block holding its base cell is marched.
+              if (owner == kNotFound || m.block_crossings[owner] == nullptr ||
+                  !(m.crossings(owner, ref.cell) >> type & 1))
+                throw std::logic_error("extract_surface: a triangle corner lies on an edge that does not cross");
+              const std::size_t row = ref.cell >> shift, first = row << shift;
+              uint32_t v = row_start[owner * rows + row];
+              for (std::size_t c = first; c < ref.cell; ++c) v += uint32_t(std::popcount(m.crossings(owner, c)));
+              v += uint32_t(std::popcount(m.crossings(owner, ref.cell) & ((uint64_t(1) << type) - 1)));
+              vertex_of[e] = v;
+            }
+            const std::span<const uint16_t> corners = m.corners(b);
+            Triangle* out = mesh.triangles.data() + m.triangle_offsets[b];
+            for (std::size_t c = 0; c < corners.size(); c += 3, ++out) {
+              *out = {vertex_of[corners[c]], vertex_of[corners[c + 1]], vertex_of[corners[c + 2]]};
+              acc += (*out)[0] == (*out)[1] || (*out)[1] == (*out)[2] || (*out)[0] == (*out)[2];
+            }
+          }
+          if (m.block_crossings[b] == nullptr) continue;
+          // The positions of the vertices this block's cells own: where {φ = iso} crosses each
+          // crossing edge (compute_vertices' formula), the far sample read from the field block
+          // next door when the edge leaves this one.
+          std::array<uint32_t, 27> field_block;
+          field_block.fill(kNotFound - 1);
+          auto value = [&](Vec3i cell, int s) {
+            const Vec3i cb{cell.x >> shift, cell.y >> shift, cell.z >> shift};
+            const Vec3i d = cb - block;
+            const int slot = (d.z + 1) * 9 + (d.y + 1) * 3 + d.x + 1;
+            if (field_block[slot] == kNotFound - 1) field_block[slot] = field.find_block(cb);
+            return *field.address_in(field_block[slot], cb, cell, s);
+          };
+          for (int z = 0; z < n; ++z)
+            for (int y = 0; y < n; ++y) {
+              uint32_t v = row_start[b * rows + std::size_t(z) * n + std::size_t(y)];
+              for (int x = 0; x < n; ++x) {
+                const Vec3i c0 = m.origins[b] + Vec3i{x, y, z};
+                for (uint64_t bits = m.crossings(b, (std::size_t(z) * n + y) * n + x); bits != 0; bits &= bits - 1) {
+                  const LatticeEdge& e = m.edge_types[std::countr_zero(bits)];
+                  const Vec3i c1{c0.x + e.dx, c0.y + e.dy, c0.z + e.dz};
+                  const Vec3f p0 = lattice.sample_position(c0, e.s0), p1 = lattice.sample_position(c1, e.s1);
+                  const float t = edge_parameter(value(c0, e.s0), value(c1, e.s1), iso, kEdgeClamp);
+                  mesh.vertices[v++] = p0 + (p1 - p0) * t;
+                }
+              }
+            }
+        }
+        return acc;
+      },
+      std::plus<>());
+  m = MarchedCorners();  // the pages, given back before the voids and smoothing allocate
   give_back_free_heap_pages();
-  std::vector<uint32_t> vertex_of;
-  resize_populated(vertex_of, entries);
-  const std::vector<uint64_t> vertex_keys = number_runs(packed, index_bits, dense.bits, vertex_of.data());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, 3 * mesh.triangles.size()),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t c = r.begin(); c != r.end(); ++c) entry_of[c] = vertex_of[entry_of[c]];
-                    });
-  std::vector<uint32_t>().swap(vertex_of);
-  compute_vertices(vertex_keys, dense, field, iso, mesh);
+  if (repeated > 0) result.dropped_triangles = drop_repeated(mesh);
 }
 
 /// Fallback for fields whose cells span so much of the key range (components near opposite
@@ -399,19 +492,13 @@ ExtractResult weld_edge_keys(std::vector<uint64_t> corner_keys, const SparseFiel
 }
 
 ExtractResult weld_edge_keys(MarchedCorners marched, const SparseField& field, float iso) {
-  if (marched.triangle_offsets.size() != marched.origins.size() + 1 ||
-      marched.edge_offsets.size() != marched.origins.size() + 1 ||
-      marched.block_edges.size() != marched.origins.size() || marched.block_corners.size() != marched.origins.size())
+  const std::size_t blocks = marched.origins.size();
+  if (marched.triangle_offsets.size() != blocks + 1 || marched.edge_offsets.size() != blocks + 1 ||
+      marched.block_edges.size() != blocks || marched.block_corners.size() != blocks ||
+      marched.block_crossings.size() != blocks || marched.edge_types == nullptr)
     throw std::logic_error("weld_edge_keys: the block offsets do not match the blocks");
   ExtractResult result;
-  const DenseEdgeKeys dense(marched);
-  // If the entries' indices fit next to the key, the block weld applies; otherwise (fields spread
-  // over most of the key range) the search fallback.
-  if (dense.bits + index_bits_for(marched.edge_count()) <= 64)
-    weld_blocks(marched, dense, field, iso, result.mesh);
-  else
-    weld_searched(marched.flatten(), dense, field, iso, result.mesh);
-  drop_repeated_triangles(result);
+  weld_numbered(marched, field, iso, result);
   return result;
 }
 

@@ -21,8 +21,9 @@ namespace meniscus {
 /// move them in and the weld sorts them in place (no second copy at the peak of the extraction).
 ExtractResult weld_edge_keys(std::vector<uint64_t> corner_keys, const SparseField& field, float iso);
 
-/// The same mesh from the marching stages' output, using its block structure: each block merges
-/// its own corners first, so only the blocks' distinct edges are sorted globally.
+/// The same mesh from the marching stages' output, using its block structure: each block has
+/// merged its own corners, and the vertices — the crossing edges the marching recorded per cell —
+/// are numbered in key order from per-row counts, so no key is sorted at all.
 ExtractResult weld_edge_keys(MarchedCorners marched, const SparseField& field, float iso);
 
 }  // namespace meniscus

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <random>
 #include <set>
@@ -134,10 +135,10 @@ TEST(ExtractWeld, FarApartComponentsWeldLikeSeparateOnes) {
   }
 }
 
-/// The marching stages' block-structured output welds (block-local merge, then a global sort of
-/// the blocks' distinct edges) into exactly the mesh of the plain weld that sorts every corner:
-/// a noisy field over 3 × 3 × 3 blocks with inside samples on the allocated boundary (so ghost
-/// blocks are marched too), for all three extractors.
+/// The marching stages' block-structured output welds (block-local merge, then vertices numbered
+/// from the blocks' crossing edges, no sort) into exactly the mesh of the plain weld that sorts
+/// every corner: a noisy field over 3 × 3 × 3 blocks with inside samples on the allocated
+/// boundary (so ghost blocks are marched too), for all three extractors.
 TEST(ExtractWeld, BlockWeldKeepsEveryCornerAndGivesTheSameMeshAsTheGlobalSort) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> noise(-0.4f, 0.4f);
@@ -216,6 +217,56 @@ TEST(ExtractWeld, BlockWeldKeepsEveryCornerAndGivesTheSameMeshAsTheGlobalSort) {
     EXPECT_EQ(blocks.mesh.vertices, plain.mesh.vertices) << to_string(e);
     EXPECT_EQ(blocks.mesh.triangles, plain.mesh.triangles) << to_string(e);
     EXPECT_TRUE(analyze_topology(blocks.mesh).watertight()) << to_string(e);
+  }
+}
+
+/// The vertex numbering without a sort (weld_numbered) on the fields hardest for it: independent
+/// random signs at every sample, so most edges cross and every block boundary, ghost block and
+/// slab boundary carries vertices; and allocated blocks scattered with gaps along each axis, so
+/// blocks of one z-slab and one row have holes between them. Vertices are exactly the crossing
+/// edges (as many as the crossing masks' bits, each corner's), in key order, at the plain weld's
+/// positions, for all three extractors.
+TEST(ExtractWeld, NumberedVerticesEqualTheSortedWeldOnRandomSignsAndScatteredBlocks) {
+  for (Extractor e : {Extractor::tiles, Extractor::cubes, Extractor::tetrahedra}) {
+    for (const int seed : {1, 2, 3}) {
+      std::mt19937 rng{uint32_t(seed)};
+      std::uniform_real_distribution<float> value(-1.0f, 1.0f);
+      SampleLattice lattice;
+      lattice.kind = e == Extractor::tiles ? SampleLattice::Kind::a15 : SampleLattice::Kind::cubic;
+      lattice.cell_size = 0.1f;
+      std::vector<uint64_t> keys;
+      std::bernoulli_distribution allocated(seed == 1 ? 1.0 : 0.5);
+      for (int z = -2; z <= 1; ++z)
+        for (int y = -1; y <= 2; ++y)
+          for (int x = -2; x <= 2; ++x)
+            if (allocated(rng)) keys.push_back(pack_coords(x, y, z));
+      std::sort(keys.begin(), keys.end());
+      SparseField field(lattice, keys, 1.0f);
+      // Mostly outside in the scattered fields (a third inside), half and half in the dense one.
+      const float bias = seed == 1 ? 0.0f : 0.33f;
+      for (std::size_t b = 0; b < field.block_count(); ++b)
+        for (float& v : field.block_values(b)) v = value(rng) + bias;
+      MarchedCorners marched = e == Extractor::tiles   ? march_tiles(field, 0)
+                               : e == Extractor::cubes ? march_cubes(field, 0)
+                                                       : march_tetrahedra(field, 0);
+      ASSERT_GT(marched.corner_count(), 3000u) << to_string(e);
+      std::size_t crossing = 0;
+      const std::size_t cells = std::size_t(marched.block_cells) * marched.block_cells * marched.block_cells;
+      for (std::size_t b = 0; b < marched.origins.size(); ++b)
+        if (marched.block_crossings[b] != nullptr)
+          for (std::size_t c = 0; c < cells; ++c) {
+            const uint64_t bits = marched.crossings(b, c);
+            EXPECT_EQ(bits & ~marched.used_types, 0u) << "a crossing of a type the extractor does not use";
+            crossing += std::size_t(std::popcount(bits));
+          }
+      const ExtractResult plain = weld_edge_keys(marched.flatten(), field, 0);
+      const ExtractResult numbered = weld_edge_keys(std::move(marched), field, 0);
+      EXPECT_EQ(numbered.mesh.vertices.size(), crossing) << to_string(e) << " seed " << seed;
+      EXPECT_EQ(numbered.mesh.vertices, plain.mesh.vertices) << to_string(e) << " seed " << seed;
+      EXPECT_EQ(numbered.mesh.triangles, plain.mesh.triangles) << to_string(e) << " seed " << seed;
+      EXPECT_EQ(numbered.dropped_triangles, 0u);
+      EXPECT_TRUE(analyze_topology(numbered.mesh).watertight()) << to_string(e) << " seed " << seed;
+    }
   }
 }
 

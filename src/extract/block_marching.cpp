@@ -108,6 +108,10 @@ std::vector<uint8_t> cell_inside_masks(const SparseField& field, float iso) {
                         // so cell c's samples are v[c·spc, (c+1)·spc).
                         const float* v = field.block_values(b).data();
                         uint8_t* m = masks.data() + b * cells;
+                        // The next blocks' values, ahead of the loads (common/prefetch.hpp).
+                        if (b + 1 < r.end())
+                          for (std::size_t line = 0; line < kBlockSamples * sizeof(float); line += 64)
+                            __builtin_prefetch(reinterpret_cast<const char*>(v + kBlockSamples) + line);
                         for (std::size_t c = 0; c < cells; ++c, v += spc) {
                           unsigned bits = 0;
                           for (int s = 0; s < spc; ++s) bits |= unsigned(v[s] < iso) << s;

@@ -195,15 +195,17 @@ int main(int argc, char** argv) {
     VdbOptions vdb_filtered = vdb;
     vdb_filtered.filter_passes = filter_passes;
 
-    // One untimed run of each tool first: the first surfacing in a process pays for the thread
-    // pool's start and the allocator's first growth, which a frame of a sequence never sees.
-    if (warmup) {
-      (void)reconstruct(scene.particles, no_smooth);
-      (void)run_openvdb(scene.particles.positions, vdb);
-    }
+    // One untimed run of each tool right before its timed ones: the first surfacing in a process
+    // pays for the thread pool's start and the allocator's first growth, which a frame of a
+    // sequence never sees; and a tool's first run after the other tool's inherits that tool's
+    // heap (OpenVDB's freed tree nodes, meniscus' freed arrays), which a sequence of one tool's
+    // frames never does either (bench/RESULTS.md: splash 1M's run without smoothing took 0.2 s
+    // longer right after OpenVDB's than after its own).
     std::vector<Column> cols;
+    if (warmup) (void)reconstruct(scene.particles, no_smooth);
     cols.push_back(run_meniscus("meniscus-nosmooth", scene, no_smooth, repeat, samples));
     cols.push_back(run_meniscus("meniscus-full", scene, base, repeat, samples));
+    if (warmup) (void)run_openvdb(scene.particles.positions, vdb);
     cols.push_back(run_vdb("vdb", scene, vdb, repeat, samples));
     cols.push_back(run_vdb(fmt::format("vdb-filter{}", filter_passes), scene, vdb_filtered, repeat, samples));
 

@@ -134,7 +134,7 @@ void scatter_block(const HashGrid& grid, const SampleLattice& lattice, const Axi
 
 SparseField distance_field(const HashGrid& grid, const SampleLattice& lattice, float band,
                            std::vector<uint64_t> block_keys) {
-  SparseField field(lattice, std::move(block_keys), band);
+  SparseField field(lattice, std::move(block_keys), band, SparseField::Unwritten{});  // every sample written below
   const int n = lattice.block_cells();
   const int spc = lattice.samples_per_cell();
   const float band2 = band * band;

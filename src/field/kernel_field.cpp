@@ -73,7 +73,7 @@ float kernel_background(const KernelFieldInput& in) {
 
 SparseField kernel_field(const KernelFieldInput& in, const SampleLattice& lattice, std::vector<uint64_t> block_keys) {
   const float background = kernel_background(in);
-  SparseField field(lattice, std::move(block_keys), background);
+  SparseField field(lattice, std::move(block_keys), background, SparseField::Unwritten{});  // all written below
   const HashGrid& grid = *in.centres;
   const auto points = grid.sorted_points();
   const float support = kernel_support(in);

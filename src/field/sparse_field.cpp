@@ -9,4 +9,10 @@ SparseField::SparseField(SampleLattice lattice, std::vector<uint64_t> block_keys
   index_.build(block_keys_);
 }
 
+SparseField::SparseField(SampleLattice lattice, std::vector<uint64_t> block_keys, float background, Unwritten)
+    : lattice_(lattice), block_keys_(std::move(block_keys)), background_(background) {
+  values_.resize(block_keys_.size() * kBlockSamples);
+  index_.build(block_keys_);
+}
+
 }  // namespace meniscus

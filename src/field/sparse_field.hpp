@@ -7,6 +7,7 @@
 #include <span>
 #include <vector>
 
+#include "common/huge_pages.hpp"
 #include "grid/key_index.hpp"
 #include "meniscus/vec.hpp"
 
@@ -48,6 +49,11 @@ class SparseField {
   /// Allocates the blocks with the given (sorted, unique) block coordinate keys (pack_coords),
   /// every sample set to `background`.
   SparseField(SampleLattice lattice, std::vector<uint64_t> block_keys, float background);
+  struct Unwritten {};
+  /// The same, leaving the samples unwritten, for a builder that writes every one of them (in
+  /// parallel, so that each thread faults in its own pages): a serial fill of splash 1M's 176 MB
+  /// of samples, all overwritten, took 0.03 s.
+  SparseField(SampleLattice lattice, std::vector<uint64_t> block_keys, float background, Unwritten);
 
   const SampleLattice& lattice() const { return lattice_; }
   float background() const { return background_; }
@@ -98,7 +104,7 @@ class SparseField {
  private:
   SampleLattice lattice_;
   std::vector<uint64_t> block_keys_;
-  std::vector<float> values_;
+  UninitVector<float> values_;
   CellIndex index_;  ///< dense over the blocks' box where that is no larger than a hash
   float background_ = 0;
 };

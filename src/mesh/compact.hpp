@@ -142,13 +142,20 @@ void remove_sorted(std::vector<T>& values, std::size_t per, std::span<const uint
   tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
     const std::size_t end = first(c + 1), tail_begin = end - (tail[c + 1] - tail[c]);
     // The groups from `from` on, up to `to`, land from `out` on (from the copies for the tail).
+    // In pieces of kPiece groups, each mapped while it is still in the cache from its copy (a
+    // run between two drops can hold millions of groups: copied whole, then mapped, it was read
+    // from memory twice).
     const auto move = [&](std::size_t from, std::size_t to, std::size_t out) {
-      const std::size_t split = std::clamp(tail_begin, from, to);
-      if (out != from) std::copy(group(from), group(split), group(out));  // out < from: forward is safe
-      if (to > split)
-        std::copy(tails.begin() + std::ptrdiff_t((tail[c] + split - tail_begin) * per),
-                  tails.begin() + std::ptrdiff_t((tail[c] + to - tail_begin) * per), group(out + split - from));
-      for (std::size_t i = out; i < out + (to - from); ++i) map(&*group(i));
+      constexpr std::size_t kPiece = 1024;
+      for (std::size_t a = from; a < to; a += kPiece) {
+        const std::size_t b = std::min(to, a + kPiece), o = out + (a - from);
+        const std::size_t split = std::clamp(tail_begin, a, b);
+        if (o != a) std::copy(group(a), group(split), group(o));  // o < a: forward is safe
+        if (b > split)
+          std::copy(tails.begin() + std::ptrdiff_t((tail[c] + split - tail_begin) * per),
+                    tails.begin() + std::ptrdiff_t((tail[c] + b - tail_begin) * per), group(o + split - a));
+        for (std::size_t i = o; i < o + (b - a); ++i) map(&*group(i));
+      }
     };
     // Between two drops the groups move together, by the drops before them.
     std::size_t from = first(c), out = first(c) - before[c];

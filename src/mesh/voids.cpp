@@ -1,6 +1,7 @@
 // meniscus — small interior void removal.
 #include "mesh/voids.hpp"
 
+#include "common/prefetch.hpp"
 #include "mesh/compact.hpp"
 #include "mesh/components.hpp"
 #include "mesh/ray_parity_impl.hpp"
@@ -49,12 +50,14 @@ MeshComponents mesh_components(const TriangleMesh& mesh) {
   // stably sorted by root and added up, so each sum takes its terms in triangle order and does
   // not depend on the thread count.
   constexpr std::size_t kChunk = std::size_t(1) << 16;
-  constexpr std::size_t kAhead = 64;  // as in vertex_normals: the corners of a triangle ahead
+  constexpr std::size_t kAhead = 64;  // as in vertex_normals: the corners of a triangle ahead,
+  // and the triangles themselves 2 KB ahead (common/prefetch.hpp; splash 1M: 0.077 -> 0.067 s)
   const std::size_t chunks = (nt + kChunk - 1) / kChunk;
   std::vector<std::vector<Run>> runs(chunks);
   tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t k) {
     auto& out = runs[k];
     for (std::size_t i = k * kChunk, end = std::min(nt, i + kChunk); i < end; ++i) {
+      prefetch_stream(mesh.triangles.data(), i, end);
       if (i + kAhead < end) {
         const Triangle& ahead = mesh.triangles[i + kAhead];
         for (const uint32_t v : ahead) __builtin_prefetch(&mesh.vertices[v]);

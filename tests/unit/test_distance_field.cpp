@@ -2,8 +2,10 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <set>
 
 #include "field/distance_field.hpp"
+#include "field/distance_field_impl.hpp"
 
 namespace meniscus {
 namespace {
@@ -59,6 +61,39 @@ void check_against_brute_force(SampleLattice::Kind kind) {
 
 TEST(DistanceField, CubicMatchesBruteForce) { check_against_brute_force(SampleLattice::Kind::cubic); }
 TEST(DistanceField, A15MatchesBruteForce) { check_against_brute_force(SampleLattice::Kind::a15); }
+
+/// The band's blocks, by either of band_blocks' paths — the byte map over the blocks' box (a
+/// compact cloud) and the sorted key list (the same cloud and a particle far away, whose box would
+/// need a map hundreds of times the cloud's) — are every block some hash cell's band box touches,
+/// listed in key order once each, as a std::set of the same boxes lists them.
+TEST(DistanceField, BandBlocksListEveryBlockOfTheBandInKeyOrder) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<Vec3f> cloud(2000);
+  for (auto& p : cloud) p = {u(rng), 0.5f * u(rng), 0.2f * u(rng)};
+  std::vector<Vec3f> spread = cloud;
+  spread.push_back({40.0f, -35.0f, 30.0f});
+  for (const auto& pts : {cloud, spread})
+    for (const SampleLattice::Kind kind : {SampleLattice::Kind::cubic, SampleLattice::Kind::a15}) {
+      const float band = 0.13f;
+      const HashGrid grid(pts, 0.1f);
+      const SampleLattice lattice{kind, kind == SampleLattice::Kind::cubic ? 0.02f : 0.04f};
+      const float block_size = lattice.cell_size * float(lattice.block_cells());
+      std::set<uint64_t> expected;
+      for (const uint64_t key : grid.cell_keys()) {
+        const Vec3i cell = unpack_coords(key);
+        int32_t lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) band_block_range(cell[a], grid.cell_size(), band, block_size, &lo[a], &hi[a]);
+        for (int32_t z = lo[2]; z <= hi[2]; ++z)
+          for (int32_t y = lo[1]; y <= hi[1]; ++y)
+            for (int32_t x = lo[0]; x <= hi[0]; ++x) expected.insert(pack_coords(x, y, z));
+      }
+      const std::vector<uint64_t> keys = band_blocks(grid, lattice, band);
+      ASSERT_GT(keys.size(), 100u);
+      EXPECT_EQ(keys, std::vector<uint64_t>(expected.begin(), expected.end()))
+          << (pts.size() == cloud.size() ? "compact cloud" : "spread cloud");
+    }
+}
 
 }  // namespace
 }  // namespace meniscus

@@ -17,7 +17,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "extract/radix_sort.hpp"
+#include "common/radix_sort.hpp"
 #include "extract/tile_table.hpp"
 #include "meniscus/errors.hpp"
 

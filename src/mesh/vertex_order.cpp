@@ -10,7 +10,7 @@
 #include <limits>
 
 #include "common/huge_pages.hpp"
-#include "extract/radix_sort.hpp"
+#include "common/radix_sort.hpp"
 #include "memory_scope.hpp"
 #include "mesh/vertex_order_impl.hpp"
 

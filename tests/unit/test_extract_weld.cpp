@@ -13,7 +13,7 @@
 #include "extract/extract.hpp"
 #include "extract/marching.hpp"
 #include "extract/marching_impl.hpp"
-#include "extract/radix_sort.hpp"
+#include "common/radix_sort.hpp"
 #include "extract/weld.hpp"
 #include "meniscus/quality.hpp"
 

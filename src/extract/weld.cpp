@@ -357,7 +357,10 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
   auto slot_offset = [](int slot) { return Vec3i{slot % 3 - 1, slot / 3 % 3 - 1, slot / 9 - 1}; };
 
   resize_populated(mesh.triangles, m.corner_count() / 3);
-  resize_huge(mesh.vertices, std::size_t(slab_start.back()));
+  // Ordinary pages for the positions too: on huge pages (madvise'd, as the voids' and normals'
+  // random reads would like) the first surfacing after a pause stalled 0.15-0.2 s in the kernel's
+  // compaction for them, and the later passes gained no measurable time from them (splash 1M).
+  resize_populated(mesh.vertices, std::size_t(slab_start.back()));
   const SampleLattice& lattice = field.lattice();
   const std::size_t repeated = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, blocks), std::size_t(0),

@@ -40,14 +40,16 @@ class ConcurrentForest {
   }
   /// x's parent: x itself for a root, otherwise an ancestor, always ≤ x.
   uint32_t parent(uint32_t x) const { return at(x).load(std::memory_order_relaxed); }
-  void unite(uint32_t a, uint32_t b) {
+  /// Joins the sets of a and b; returns the root the joined set had (a later union may have hooked
+  /// it since: it is then an ancestor of both, which is all unite needs from it).
+  uint32_t unite(uint32_t a, uint32_t b) {
     for (;;) {
       a = find(a);
       b = find(b);
-      if (a == b) return;
+      if (a == b) return a;
       if (a < b) std::swap(a, b);
       uint32_t expected = a;
-      if (at(a).compare_exchange_strong(expected, b, std::memory_order_relaxed)) return;
+      if (at(a).compare_exchange_strong(expected, b, std::memory_order_relaxed)) return b;
     }
   }
 
@@ -65,8 +67,9 @@ std::vector<uint32_t> component_roots(std::size_t vertex_count, std::span<const 
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles.size(), 4096), [&](const auto& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
       const Triangle& t = triangles[i];
-      forest.unite(t[0], t[1]);
-      forest.unite(t[1], t[2]);
+      // The second union starts from the first's root, not from t[1] again: one walk saved
+      // (splash 1M: 0.130 -> 0.126 s).
+      forest.unite(forest.unite(t[0], t[1]), t[2]);
     }
   });
   std::vector<uint32_t> root;

@@ -11,7 +11,9 @@
 // off without: a huge page is zeroed whole at its first touch, ahead of the writes, which then
 // miss the cache — the field and the extraction measured 10-15 % slower with it. glibc's own
 // switch (GLIBC_TUNABLES=glibc.malloc.hugetlb=1) is read at process start only, so a library
-// cannot set it, and it would apply to every array alike.
+// cannot set it, and it would apply to every array alike. The extraction's vertex positions left
+// huge pages again (weld.cpp): with the kernel's `defrag` = `madvise` their first touch could stall
+// in compaction, and the later passes' prefetched reads no longer gained from them.
 #pragma once
 
 #include <tbb/parallel_for.h>

@@ -289,14 +289,23 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
   const int shift = std::countr_zero(unsigned(n));
   const std::size_t rows = std::size_t(n) * std::size_t(n);
 
-  // Each row's count of crossing edges, then (in place) its first vertex number.
+  // Each row's count of crossing edges, then (in place) its first vertex number; and each cell's
+  // count of the crossing edges before it in its row (at most 3 · 54 on the A15 lattice, 7 · 7 on
+  // the cubic one: a byte), so that numbering an edge takes one popcount, not one per cell before it
+  // (splash 1M extract, 6 alternating runs each: mean 0.736 -> 0.701 s, for 6 MB).
+  const std::size_t cells = rows * std::size_t(n);
   std::vector<uint32_t> row_start(blocks * rows, 0);
+  std::vector<uint8_t> before_in_row;
+  resize_populated(before_in_row, blocks * cells);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
       if (m.block_crossings[b] == nullptr) continue;
       for (std::size_t row = 0; row < rows; ++row) {
         uint32_t count = 0;
-        for (int x = 0; x < n; ++x) count += uint32_t(std::popcount(m.crossings(b, row * n + x)));
+        for (int x = 0; x < n; ++x) {
+          before_in_row[b * cells + row * n + x] = uint8_t(count);
+          count += uint32_t(std::popcount(m.crossings(b, row * n + x)));
+        }
         row_start[b * rows + row] = count;
       }
     }
@@ -385,9 +394,7 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
               if (owner == kNotFound || m.block_crossings[owner] == nullptr ||
                   !(m.crossings(owner, ref.cell) >> type & 1))
                 throw std::logic_error("extract_surface: a triangle corner lies on an edge that does not cross");
-              const std::size_t row = ref.cell >> shift, first = row << shift;
-              uint32_t v = row_start[owner * rows + row];
-              for (std::size_t c = first; c < ref.cell; ++c) v += uint32_t(std::popcount(m.crossings(owner, c)));
+              uint32_t v = row_start[owner * rows + (ref.cell >> shift)] + before_in_row[owner * cells + ref.cell];
               v += uint32_t(std::popcount(m.crossings(owner, ref.cell) & ((uint64_t(1) << type) - 1)));
               vertex_of[e] = v;
             }

@@ -4,12 +4,10 @@
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <atomic>
-#include <climits>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -19,57 +17,46 @@ namespace meniscus {
 
 namespace {
 
+/// The blocks [lo, hi] (inclusive, per axis) that the box of hash cell `cell` (edge `cell_size`),
+/// widened by `band`, touches.
+struct BlockBox {
+  int32_t lo[3], hi[3];
+};
+BlockBox band_block_box(Vec3i cell, float cell_size, float band, float block_size) {
+  BlockBox box;
+  for (int a = 0; a < 3; ++a) band_block_range(cell[a], cell_size, band, block_size, &box.lo[a], &box.hi[a]);
+  return box;
+}
+
 /// band_blocks over a byte per block of the blocks' box, where that box is small (a frame's
 /// fluid fills much of its box): each hash cell marks its blocks, then one scan in (z, y, x)
 /// order lists the marked ones — already sorted, no key list of every cell's blocks to sort and
-/// deduplicate (splash 1M: the field stage 0.50 -> 0.46 s). Returns false, doing nothing, where the box is too
-/// large for the map (particles in far-apart clusters).
+/// deduplicate (splash 1M: the field stage 0.50 -> 0.46 s). Returns false, doing nothing, where
+/// the box is too large for the map (particles in far-apart clusters).
 bool band_blocks_dense(const HashGrid& grid, float band, float block_size, std::vector<uint64_t>& keys) {
   const auto cells = grid.cell_keys();
   const float c = grid.cell_size();
   if (cells.empty()) return false;
-  struct Box {
-    int32_t lo[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, hi[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
-  };
-  const Box box = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, cells.size(), 4096), Box{},
-      [&](const tbb::blocked_range<std::size_t>& r, Box b) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          const Vec3i cell = unpack_coords(cells[i]);
-          for (int a = 0; a < 3; ++a) {
-            int32_t lo, hi;
-            band_block_range(cell[a], c, band, block_size, &lo, &hi);
-            b.lo[a] = std::min(b.lo[a], lo);
-            b.hi[a] = std::max(b.hi[a], hi);
-          }
-        }
-        return b;
-      },
-      [](Box a, const Box& b) {
-        for (int k = 0; k < 3; ++k) {
-          a.lo[k] = std::min(a.lo[k], b.lo[k]);
-          a.hi[k] = std::max(a.hi[k], b.hi[k]);
-        }
-        return a;
-      });
-  const std::size_t nx = std::size_t(box.hi[0] - box.lo[0]) + 1, ny = std::size_t(box.hi[1] - box.lo[1]) + 1,
-                    nz = std::size_t(box.hi[2] - box.lo[2]) + 1;
+  // band_block_range rises with the cell, so the grid's cell box gives the blocks' box.
+  const BlockBox first = band_block_box(grid.cell_min(), c, band, block_size);
+  const BlockBox last = band_block_box(grid.cell_max(), c, band, block_size);
+  const int32_t* lo = first.lo;
+  const std::size_t nx = std::size_t(last.hi[0] - lo[0]) + 1, ny = std::size_t(last.hi[1] - lo[1]) + 1,
+                    nz = std::size_t(last.hi[2] - lo[2]) + 1;
   // A byte a box block, at most 64 per hash cell (the sorted key list takes 8 bytes for each of
   // a cell's blocks, 8 to 27 of them).
   if (double(nx) * double(ny) * double(nz) > 64.0 * double(cells.size())) return false;
   std::vector<uint8_t> marked(nx * ny * nz, 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 1024), [&](const auto& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const Vec3i cell = unpack_coords(cells[i]);
-      int32_t lo[3], hi[3];
-      for (int a = 0; a < 3; ++a) band_block_range(cell[a], c, band, block_size, &lo[a], &hi[a]);
-      for (int32_t z = lo[2]; z <= hi[2]; ++z)
-        for (int32_t y = lo[1]; y <= hi[1]; ++y) {
-          uint8_t* row = marked.data() + (std::size_t(z - box.lo[2]) * ny + std::size_t(y - box.lo[1])) * nx;
+      const BlockBox b = band_block_box(unpack_coords(cells[i]), c, band, block_size);
+      for (int32_t z = b.lo[2]; z <= b.hi[2]; ++z)
+        for (int32_t y = b.lo[1]; y <= b.hi[1]; ++y) {
+          uint8_t* row = marked.data() + (std::size_t(z - lo[2]) * ny + std::size_t(y - lo[1])) * nx;
           // Neighbouring cells mark the same blocks from both threads: relaxed atomic stores of
           // the same value (a plain store on x86), not a data race.
-          for (int32_t x = lo[0]; x <= hi[0]; ++x)
-            std::atomic_ref<uint8_t>(row[x - box.lo[0]]).store(1, std::memory_order_relaxed);
+          for (int32_t x = b.lo[0]; x <= b.hi[0]; ++x)
+            std::atomic_ref<uint8_t>(row[x - lo[0]]).store(1, std::memory_order_relaxed);
         }
     }
   });
@@ -88,7 +75,7 @@ bool band_blocks_dense(const HashGrid& grid, float band, float block_size, std::
     for (std::size_t y = 0; y < ny; ++y)
       for (std::size_t x = 0; x < nx; ++x)
         if (marked[(z * ny + y) * nx + x])
-          keys[k++] = pack_coords(box.lo[0] + int32_t(x), box.lo[1] + int32_t(y), box.lo[2] + int32_t(z));
+          keys[k++] = pack_coords(lo[0] + int32_t(x), lo[1] + int32_t(y), lo[2] + int32_t(z));
   });
   return true;
 }
@@ -104,13 +91,10 @@ std::vector<uint64_t> band_blocks(const HashGrid& grid, const SampleLattice& lat
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 256), [&](const auto& r) {
     auto& out = local.local();
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const Vec3i cell = unpack_coords(cells[i]);
-      // The hash cell's box expanded by the band, in block coordinates.
-      int32_t lo[3], hi[3];
-      for (int a = 0; a < 3; ++a) band_block_range(cell[a], c, band, block_size, &lo[a], &hi[a]);
-      for (int32_t z = lo[2]; z <= hi[2]; ++z)
-        for (int32_t y = lo[1]; y <= hi[1]; ++y)
-          for (int32_t x = lo[0]; x <= hi[0]; ++x) out.push_back(pack_coords(x, y, z));
+      const BlockBox b = band_block_box(unpack_coords(cells[i]), c, band, block_size);
+      for (int32_t z = b.lo[2]; z <= b.hi[2]; ++z)
+        for (int32_t y = b.lo[1]; y <= b.hi[1]; ++y)
+          for (int32_t x = b.lo[0]; x <= b.hi[0]; ++x) out.push_back(pack_coords(x, y, z));
     }
     std::sort(out.begin(), out.end());
     out.erase(std::unique(out.begin(), out.end()), out.end());

@@ -90,7 +90,6 @@ struct MarchedCorners {
   }
 
   std::size_t corner_count() const { return triangle_offsets.empty() ? 0 : 3 * std::size_t(triangle_offsets.back()); }
-  std::size_t edge_count() const { return edge_offsets.empty() ? 0 : std::size_t(edge_offsets.back()); }
   /// Block b's distinct edges, as codes.
   std::span<const uint16_t> edges(std::size_t b) const {
     return {block_edges[b], std::size_t(edge_offsets[b + 1] - edge_offsets[b])};

@@ -339,8 +339,11 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
       }
   });
 
+  // The 27 blocks around a block (offsets in {-1, 0, 1}³) as slots 0..26, and back.
+  const auto slot_of = [](Vec3i d) { return (d.z + 1) * 9 + (d.y + 1) * 3 + d.x + 1; };
+  const auto slot_offset = [](int slot) { return Vec3i{slot % 3 - 1, slot / 3 % 3 - 1, slot / 9 - 1}; };
   // A code's cell (BlockEdgeCodes: relative to the block's first cell - 2) as the block holding
-  // it, one of the 27 around (slot (z + 1)·9 + (y + 1)·3 + x + 1), and the cell's index there.
+  // it, by its slot, and the cell's index there.
   const BlockEdgeCodes codes = m.codes;
   struct CellRef {
     uint8_t slot;
@@ -353,8 +356,7 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
         const Vec3i c{x - 2, y - 2, z - 2};
         const Vec3i o{c.x >> shift, c.y >> shift, c.z >> shift};  // -1, 0 or 1
         const Vec3i l{c.x - o.x * n, c.y - o.y * n, c.z - o.z * n};
-        cell_ref[std::size_t(i)] = {uint8_t((o.z + 1) * 9 + (o.y + 1) * 3 + o.x + 1),
-                                    uint16_t((l.z * n + l.y) * n + l.x)};
+        cell_ref[std::size_t(i)] = {uint8_t(slot_of(o)), uint16_t((l.z * n + l.y) * n + l.x)};
       }
   const uint16_t type_mask = uint16_t((1u << codes.type_bits) - 1);
   std::vector<uint64_t> keys(blocks);
@@ -363,7 +365,6 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
     keys[b] = pack_coords(o.x >> shift, o.y >> shift, o.z >> shift);
   }
   const CellIndex index(keys);
-  auto slot_offset = [](int slot) { return Vec3i{slot % 3 - 1, slot / 3 % 3 - 1, slot / 9 - 1}; };
 
   resize_populated(mesh.triangles, m.corner_count() / 3);
   // Ordinary pages for the positions too: on huge pages (madvise'd, as the voids' and normals'
@@ -413,8 +414,7 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
           field_block.fill(kNotFound - 1);
           auto value = [&](Vec3i cell, int s) {
             const Vec3i cb{cell.x >> shift, cell.y >> shift, cell.z >> shift};
-            const Vec3i d = cb - block;
-            const int slot = (d.z + 1) * 9 + (d.y + 1) * 3 + d.x + 1;
+            const int slot = slot_of(cb - block);
             if (field_block[slot] == kNotFound - 1) field_block[slot] = field.find_block(cb);
             return *field.address_in(field_block[slot], cb, cell, s);
           };

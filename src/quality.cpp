@@ -10,7 +10,7 @@
 #include <numbers>
 
 #include "grid/hash_grid.hpp"
-#include "mesh/ray_parity_impl.hpp"
+#include "mesh/triangle_bvh.hpp"
 
 namespace meniscus {
 
@@ -286,54 +286,28 @@ PlaneFit fit_plane(std::span<const Vec3f> points) {
   return fit;
 }
 
+double mean_edge_length(const TriangleMesh& mesh) {
+  const auto& v = mesh.vertices;
+  const double sum = tbb::parallel_deterministic_reduce(  // the same sum on any number of threads
+      tbb::blocked_range<std::size_t>(0, mesh.triangles.size(), 4096), 0.0,
+      [&](const auto& r, double s) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const Triangle& t = mesh.triangles[i];
+          s += double(length(v.at(t[0]) - v.at(t[1]))) + length(v.at(t[1]) - v.at(t[2])) + length(v.at(t[2]) - v.at(t[0]));
+        }
+        return s;
+      },
+      std::plus<>());
+  return mesh.triangles.empty() ? 0.0 : sum / (3.0 * double(mesh.triangles.size()));
+}
+
 std::size_t points_outside(const TriangleMesh& mesh, std::span<const Vec3f> points) {
   if (mesh.triangles.empty()) return points.size();
-  // Bucket the triangles by their y-z bounding boxes on a grid of about one triangle per cell.
-  Vec3f lo = mesh.vertices[mesh.triangles[0][0]], hi = lo;
-  for (const Triangle& t : mesh.triangles)
-    for (uint32_t v : t) lo = min(lo, mesh.vertices[v]), hi = max(hi, mesh.vertices[v]);
-  const RayParityFrame frame = ray_parity_frame(lo, hi, mesh.triangles.size());
-  const int res = frame.res;
-  const double sy = frame.sy, sz = frame.sz;
-  auto cell = [&](double v, double origin, double size) { return std::clamp(int((v - origin) / size), 0, res - 1); };
-  std::vector<uint32_t> start(std::size_t(res) * res + 1, 0), ids;
-  for (int pass = 0; pass < 2; ++pass) {
-    std::vector<uint32_t> fill;
-    if (pass == 1) {
-      for (std::size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
-      ids.resize(start.back());
-      fill.assign(start.begin(), start.end() - 1);
-    }
-    for (uint32_t f = 0; f < mesh.triangles.size(); ++f) {
-      const Triangle& t = mesh.triangles[f];
-      const Vec3f a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], c = mesh.vertices[t[2]];
-      const int y0 = cell(std::min({a.y, b.y, c.y}), lo.y, sy), y1 = cell(std::max({a.y, b.y, c.y}), lo.y, sy);
-      const int z0 = cell(std::min({a.z, b.z, c.z}), lo.z, sz), z1 = cell(std::max({a.z, b.z, c.z}), lo.z, sz);
-      for (int z = z0; z <= z1; ++z)
-        for (int y = y0; y <= y1; ++y) {
-          const std::size_t k = std::size_t(z) * res + y;
-          if (pass == 0) ++start[k + 1]; else ids[fill[k]++] = f;
-        }
-    }
-  }
+  const TriangleBvh bvh(mesh.vertices, mesh.triangles);
   return tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, points.size(), 256), std::size_t(0),
       [&](const auto& r, std::size_t outside) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          double px, py, pz;
-          if (!ray_parity_origin(frame, points[i], &px, &py, &pz)) {
-            ++outside;
-            continue;
-          }
-          // Only the triangles of the point's bucket can be crossed (their y-z boxes hold it).
-          const std::size_t k = std::size_t(cell(pz, lo.z, sz)) * res + cell(py, lo.y, sy);
-          int crossings = 0;
-          for (uint32_t j = start[k]; j < start[k + 1]; ++j) {
-            const Triangle& t = mesh.triangles[ids[j]];
-            crossings += ray_crosses(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]], px, py, pz);
-          }
-          outside += (crossings % 2) == 0;
-        }
+        for (std::size_t i = r.begin(); i != r.end(); ++i) outside += !bvh.inside(points[i]);
         return outside;
       },
       std::plus<>());

@@ -1,93 +1,110 @@
 // meniscus — point-to-surface distance (DESIGN §5, frame-to-frame flicker): closest points on
-// triangles (Ericson 2005 §5.1.5) found through a uniform grid of the triangles.
+// triangles (Ericson 2005 §5.1.5) found through Embree's BVH (mesh/triangle_bvh.hpp).
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
-#include <unordered_map>
+#include <stdexcept>
 
-#include "grid/key_index.hpp"
 #include "meniscus/quality.hpp"
-#include "mesh/closest_point_impl.hpp"
+#include "mesh/compact.hpp"
+#include "mesh/triangle_bvh.hpp"
 
 namespace meniscus {
+namespace {
 
-SurfaceDistanceReport distance_to_surface(std::span<const Vec3f> points, const TriangleMesh& surface) {
-  SurfaceDistanceReport report;
+struct Box {
+  Vec3f lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+};
+
+Box bounds(std::span<const Vec3f> points) {
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, points.size(), 1 << 14), Box{},
+      [&](const auto& r, Box b) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) b.lo = min(b.lo, points[i]), b.hi = max(b.hi, points[i]);
+        return b;
+      },
+      [](Box a, const Box& b) { return Box{min(a.lo, b.lo), max(a.hi, b.hi)}; });
+}
+
+/// The triangles of `surface` whose bounding boxes reach into `box`: with a cap, the only ones a
+/// query from inside the box (grown by the cap) can find. One pass over the triangles, so the
+/// BVH costs what the part of the surface near the points costs, not the whole previous frame
+/// (one droplet after a full frame builds a BVH of a few triangles).
+std::vector<Triangle> triangles_near(const TriangleMesh& surface, const Box& box) {
   const auto& v = surface.vertices;
-  const auto& tris = surface.triangles;
-  if (points.empty() || tris.empty()) return report;
-  Vec3f lo = v[tris[0][0]], hi = lo;
-  double edge_sum = 0;
-  for (const Triangle& t : tris)
-    for (int k = 0; k < 3; ++k) {
-      lo = min(lo, v[t[k]]), hi = max(hi, v[t[k]]);
-      edge_sum += length(v[t[k]] - v[t[(k + 1) % 3]]);
-    }
-  // Cells of about two mean edges, but never so many that the coordinates overflow the keys.
-  const float diag = length(hi - lo);
-  const float cell = std::max({float(2 * edge_sum / (3.0 * double(tris.size()))), diag / float(kMaxCoord / 2), 1e-30f});
-  const auto coord = [&](Vec3f p) {
-    return Vec3i{int32_t(std::floor((p.x - lo.x) / cell)), int32_t(std::floor((p.y - lo.y) / cell)),
-                 int32_t(std::floor((p.z - lo.z) / cell))};
+  const auto& t = surface.triangles;
+  const auto near = [&](std::size_t i) {
+    if (std::max({t[i][0], t[i][1], t[i][2]}) >= v.size())
+      throw std::invalid_argument(fmt::format("distance_to_surface: triangle {} names a vertex past the {} vertices", i, v.size()));
+    const Vec3f lo = min(min(v[t[i][0]], v[t[i][1]]), v[t[i][2]]), hi = max(max(v[t[i][0]], v[t[i][1]]), v[t[i][2]]);
+    return lo.x <= box.hi.x && lo.y <= box.hi.y && lo.z <= box.hi.z && hi.x >= box.lo.x && hi.y >= box.lo.y &&
+           hi.z >= box.lo.z;
   };
-  // (cell key, triangle) pairs of every cell each triangle's bounding box touches.
-  std::vector<std::pair<uint64_t, uint32_t>> entries;
-  for (uint32_t ti = 0; ti < tris.size(); ++ti) {
-    const Triangle& t = tris[ti];
-    const Vec3i a = coord(min(min(v[t[0]], v[t[1]]), v[t[2]])), b = coord(max(max(v[t[0]], v[t[1]]), v[t[2]]));
-    for (int32_t z = a.z; z <= b.z; ++z)
-      for (int32_t y = a.y; y <= b.y; ++y)
-        for (int32_t x = a.x; x <= b.x; ++x) entries.emplace_back(pack_coords(x, y, z), ti);
-  }
-  tbb::parallel_sort(entries.begin(), entries.end());
-  std::unordered_map<uint64_t, std::pair<uint32_t, uint32_t>> cells;
-  for (uint32_t i = 0; i < entries.size();) {
-    uint32_t j = i;
-    while (j < entries.size() && entries[j].first == entries[i].first) ++j;
-    cells.emplace(entries[i].first, std::pair{i, j});
-    i = j;
-  }
-  const Vec3i cmax = coord(hi);
+  std::vector<std::size_t> offsets;
+  std::vector<Triangle> kept(detail::chunk_offsets(t.size(), near, offsets));
+  detail::for_each_set(t.size(), near, offsets, [&](std::size_t i, std::size_t rank) { kept[rank] = t[i]; });
+  return kept;
+}
 
+}  // namespace
+
+SurfaceDistanceReport distance_to_surface(std::span<const Vec3f> points, const TriangleMesh& surface, double cap) {
+  SurfaceDistanceReport report;
+  report.cap = cap;
+  if (points.empty() || surface.triangles.empty()) return report;
+  report.count = points.size();
+  const float reach = cap < double(INFINITY) ? float(cap) : INFINITY;
+  std::vector<Triangle> near;
+  std::span<const Triangle> searched = surface.triangles;
+  if (reach < INFINITY) {
+    Box box = bounds(points);
+    box.lo -= Vec3f{reach, reach, reach}, box.hi += Vec3f{reach, reach, reach};
+    near = triangles_near(surface, box);
+    searched = near;
+  }
+  const TriangleBvh bvh(surface.vertices, searched);
   std::vector<float> dist(points.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 256), [&](const auto& r) {
+  std::atomic<std::size_t> tests{0}, beyond{0};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 1024), [&](const auto& r) {
+    std::size_t t = 0, b = 0;
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const Vec3f p = points[i];
-      // Clamp the start cell into the grid; the ring bound uses the distance to the grid's box.
-      const Vec3i c0 = coord(p);
-      const Vec3i c{std::clamp(c0.x, 0, cmax.x), std::clamp(c0.y, 0, cmax.y), std::clamp(c0.z, 0, cmax.z)};
-      const int max_ring = std::max({c.x, cmax.x - c.x, c.y, cmax.y - c.y, c.z, cmax.z - c.z});
-      float best2 = INFINITY;
-      for (int ring = 0; ring <= max_ring; ++ring) {
-        for (int32_t z = c.z - ring; z <= c.z + ring; ++z)
-          for (int32_t y = c.y - ring; y <= c.y + ring; ++y)
-            for (int32_t x = c.x - ring; x <= c.x + ring; ++x) {
-              if (std::max({std::abs(x - c.x), std::abs(y - c.y), std::abs(z - c.z)}) != ring) continue;
-              if (x < 0 || y < 0 || z < 0 || x > cmax.x || y > cmax.y || z > cmax.z) continue;
-              const auto it = cells.find(pack_coords(x, y, z));
-              if (it == cells.end()) continue;
-              for (uint32_t e = it->second.first; e < it->second.second; ++e) {
-                const Triangle& t = tris[entries[e].second];
-                best2 = std::min(best2, length2(closest_point_on_triangle(p, v[t[0]], v[t[1]], v[t[2]]) - p));
-              }
-            }
-        // Cells outside ring `ring` are at least ring·cell from p (p lies in its start cell, or
-        // beyond it on the side away from the grid when the start cell was clamped).
-        const float reach = float(ring) * cell;
-        if (best2 <= reach * reach) break;
+      // Warm start: the distance to a surface changes by at most the step between two points, so
+      // the previous point's distance plus the step bounds this one's (with a little slack for
+      // rounding). The query starts at that radius instead of the cap; our vertices are in cell
+      // order, so the step is usually a fraction of the spacing.
+      float start = reach;
+      if (i != r.begin() && dist[i - 1] < reach)
+        start = std::min(reach, (dist[i - 1] + length(points[i] - points[i - 1])) * (1 + 1e-5f) + 1e-30f);
+      TriangleBvh::Closest c = bvh.closest(points[i], start);
+      if (c.triangle == UINT32_MAX && start < reach) {  // only when rounding beat the slack
+        t += c.triangle_tests;
+        c = bvh.closest(points[i], reach);
       }
-      dist[i] = std::sqrt(best2);
+      t += c.triangle_tests;
+      if (c.triangle == UINT32_MAX) {
+        dist[i] = reach;  // nothing within the cap: counted at the cap
+        ++b;
+      } else {
+        dist[i] = c.distance;
+      }
     }
+    tests += t;
+    beyond += b;
   });
-  report.count = dist.size();
+  report.triangle_tests = tests;
+  report.beyond_cap = beyond;
+  // The statistics in double, with the cap itself (not its float) for the points beyond it.
   double sum = 0;
-  for (float d : dist) sum += d, report.max = std::max(report.max, double(d));
+  for (float d : dist) sum += std::min(double(d), cap), report.max = std::max(report.max, std::min(double(d), cap));
   report.mean = sum / double(dist.size());
   auto q = dist.begin() + std::ptrdiff_t(double(dist.size() - 1) * 0.95);
   std::nth_element(dist.begin(), q, dist.end());
-  report.p95 = *q;
+  report.p95 = std::min(double(*q), cap);
   return report;
 }
 

@@ -2,6 +2,7 @@
 // flatness, volume. Independent of the pipeline: they judge any mesh, ours or another tool's.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <span>
 #include <vector>
@@ -68,17 +69,36 @@ struct PlaneFit {
 PlaneFit fit_plane(std::span<const Vec3f> points);
 
 struct SurfaceDistanceReport {
-  double mean = 0, p95 = 0, max = 0;  ///< over the points: distance to the closest surface point
+  /// Over the points: distance to the closest point of the surface; a point with no surface
+  /// within `cap` counts as `cap` (mean, p95 and max are then lower bounds).
+  double mean = 0, p95 = 0, max = 0;
   std::size_t count = 0;
+  std::size_t beyond_cap = 0;      ///< points with no surface within `cap`
+  double cap = INFINITY;           ///< the search distance asked for
+  std::size_t triangle_tests = 0;  ///< point–triangle distances evaluated: the measure's cost
 };
-/// Distance of every point to the closest point of the triangles of `surface` (a uniform grid of
-/// the triangles' bounding boxes, searched ring by ring until no unvisited cell can be nearer).
-/// The frame-to-frame flicker of a sequence is distance_to_surface(frame t's vertices, frame
-/// t−1's mesh). An empty surface gives count 0 and zeros. Parallel over the points.
-SurfaceDistanceReport distance_to_surface(std::span<const Vec3f> points, const TriangleMesh& surface);
+/// Distance of every point to the closest point of the triangles of `surface`, through a BVH of
+/// the triangles (Embree). The search of each point stops at `cap`: the work per point is then
+/// bounded by the triangles within `cap` of it, whatever the two geometries are (two unrelated
+/// frames, a frame far away, one droplet inside a hollow shell). The frame-to-frame flicker of a
+/// sequence is distance_to_surface(frame t's vertices, frame t−1's mesh, flicker cap). An empty
+/// surface gives count 0 and zeros. Parallel over the points.
+SurfaceDistanceReport distance_to_surface(std::span<const Vec3f> points, const TriangleMesh& surface,
+                                          double cap = INFINITY);
 
-/// How many of `points` lie outside the closed mesh (ray parity along +x through a 2-D bucket
-/// grid of the triangles; rays are nudged off exact edges). Meaningful for closed meshes.
+/// The flicker's search distance in particle spacings: a vertex farther than this from the
+/// previous frame's surface is not flicker (a fraction of d) but a cut, an emitter or a frame
+/// out of order; it counts at the cap, and the search costs at most the triangles within it.
+inline constexpr double kFlickerCapSpacings = 4;
+/// The same distance in mean edge lengths, for meshes whose spacing is unknown: a meniscus
+/// mesh's mean edge is about d/4 at the default voxel size d/2.
+inline constexpr double kFlickerCapEdges = 16;
+
+/// Mean length of the triangles' edges (each side of each triangle once); 0 without triangles.
+double mean_edge_length(const TriangleMesh& mesh);
+
+/// How many of `points` lie outside the closed mesh (ray parity along +x through a BVH of the
+/// triangles; rays are nudged off exact edges). Meaningful for closed meshes.
 std::size_t points_outside(const TriangleMesh& mesh, std::span<const Vec3f> points);
 
 }  // namespace meniscus

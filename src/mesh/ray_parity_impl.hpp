@@ -1,4 +1,4 @@
-// meniscus — the inside test by ray parity (quality.cpp's points_outside, voids.cpp's blob test),
+// meniscus — the inside test by ray parity (TriangleBvh::inside, voids.cpp's blob test),
 // shared by the CPU and CUDA backends: a ray from the point along +x, nudged off the lattice the
 // extraction's vertices may share with the point, crosses a closed surface an odd number of times
 // when the point is inside it.
@@ -13,7 +13,7 @@
 namespace meniscus {
 
 /// The nudge scale of a surface with `triangles` triangles and bounds [lo, hi]: its y-z extent
-/// over a grid of about one triangle per cell (the CPU's bucket grid).
+/// over a grid of about one triangle per cell, i.e. about a triangle's size.
 struct RayParityFrame {
   Vec3f lo{}, hi{};
   int res = 1;

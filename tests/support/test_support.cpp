@@ -1,8 +1,10 @@
 #include "support/test_support.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <random>
 #include <sys/wait.h>
 
@@ -33,6 +35,44 @@ ParticleSet lattice_ball(float R, float d, Vec3f center) {
         if (length(q) <= R) ps.positions.push_back(center + q);
       }
   return ps;
+}
+
+TriangleMesh icosphere(int subdivisions, float radius, Vec3f center) {
+  const float phi = (1.0f + std::sqrt(5.0f)) / 2.0f;
+  std::vector<Vec3f> unit = {{-1, phi, 0},  {1, phi, 0},  {-1, -phi, 0}, {1, -phi, 0}, {0, -1, phi},  {0, 1, phi},
+                             {0, -1, -phi}, {0, 1, -phi}, {phi, 0, -1},  {phi, 0, 1},  {-phi, 0, -1}, {-phi, 0, 1}};
+  for (Vec3f& v : unit) v = normalized(v);
+  std::vector<Triangle> faces = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+                                 {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+                                 {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+  for (int level = 0; level < subdivisions; ++level) {
+    std::map<std::pair<uint32_t, uint32_t>, uint32_t> midpoints;
+    const auto midpoint = [&](uint32_t a, uint32_t b) {
+      const auto key = std::minmax(a, b);
+      const auto [it, inserted] = midpoints.try_emplace({key.first, key.second}, uint32_t(unit.size()));
+      if (inserted) unit.push_back(normalized(unit[a] + unit[b]));
+      return it->second;
+    };
+    std::vector<Triangle> finer;
+    finer.reserve(faces.size() * 4);
+    for (const Triangle& t : faces) {
+      const uint32_t ab = midpoint(t[0], t[1]), bc = midpoint(t[1], t[2]), ca = midpoint(t[2], t[0]);
+      finer.push_back({t[0], ab, ca});
+      finer.push_back({t[1], bc, ab});
+      finer.push_back({t[2], ca, bc});
+      finer.push_back({ab, bc, ca});
+    }
+    faces = std::move(finer);
+  }
+  // Make the winding outward-facing whatever the table's convention.
+  for (Triangle& t : faces)
+    if (dot(cross(unit[t[1]] - unit[t[0]], unit[t[2]] - unit[t[0]]), unit[t[0]] + unit[t[1]] + unit[t[2]]) < 0)
+      std::swap(t[1], t[2]);
+  TriangleMesh mesh;
+  for (const Vec3f& u : unit) mesh.vertices.push_back(center + u * radius);
+  mesh.normals = unit;
+  mesh.triangles = std::move(faces);
+  return mesh;
 }
 
 TriangleMesh grid_mesh(uint32_t nx, uint32_t ny, const std::function<float(uint32_t, uint32_t)>& height) {

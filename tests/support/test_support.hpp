@@ -29,6 +29,11 @@ ParticleSet shell_ball(float R, float d, Vec3f center = {0, 0, 0});
 /// in row order, split on the same diagonal: a mesh of known size in spatial order.
 TriangleMesh grid_mesh(uint32_t nx, uint32_t ny, const std::function<float(uint32_t, uint32_t)>& height);
 
+/// A closed icosphere: the icosahedron subdivided `subdivisions` times (20·4^subdivisions
+/// triangles) on the sphere of `radius` around `center`, triangles counter-clockwise from
+/// outside, with exact sphere normals.
+TriangleMesh icosphere(int subdivisions, float radius = 1.0f, Vec3f center = {0, 0, 0});
+
 /// A fresh empty directory under the system temp dir, removed by the destructor.
 struct TempDir {
   TempDir();

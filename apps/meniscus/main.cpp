@@ -293,38 +293,55 @@ void print_summary(const SurfaceArgs& a, const FrameFiles& f, const Result& resu
 class SequenceFlicker {
  public:
   explicit SequenceFlicker(std::size_t frames) : status_(frames, kPending), flicker_(frames) {}
-  /// Records frame i's result (mesh == nullptr: it failed); returns the frames whose flicker
-  /// became known.
-  std::vector<std::size_t> settle(std::size_t i, TriangleMesh* mesh) {
+  /// Records frame i's result (mesh == nullptr: it failed) and its spacing; returns the frames
+  /// whose flicker became known. A frame's flicker searches kFlickerCapSpacings of its spacing.
+  std::vector<std::size_t> settle(std::size_t i, TriangleMesh* mesh, double spacing = 0) {
     status_[i] = mesh ? kDone : kFailed;
-    if (mesh) meshes_[i] = std::move(*mesh);
+    if (mesh) meshes_[i] = std::move(*mesh), caps_[i] = kFlickerCapSpacings * spacing;
     std::vector<std::size_t> known;
     for (std::size_t k : {i, i + 1}) {
       if (k == 0 || k >= status_.size() || status_[k - 1] != kDone || status_[k] != kDone) continue;
-      flicker_[k] = distance_to_surface(meshes_.at(k).vertices, meshes_.at(k - 1));
+      const auto t0 = std::chrono::steady_clock::now();
+      flicker_[k] = Measured{distance_to_surface(meshes_.at(k).vertices, meshes_.at(k - 1), caps_.at(k)), 0};
+      flicker_[k]->seconds = seconds_since(t0);
       known.push_back(k);
     }
     for (std::size_t k : {i == 0 ? i : i - 1, i, i + 1}) {  // drop meshes no pair needs any more
       if (k >= status_.size() || !meshes_.count(k)) continue;
       const bool before = k == 0 || status_[k - 1] != kPending;
       const bool after = k + 1 == status_.size() || status_[k + 1] != kPending;
-      if (before && after) meshes_.erase(k);
+      if (before && after) meshes_.erase(k), caps_.erase(k);
     }
     return known;
   }
-  const std::optional<SurfaceDistanceReport>& flicker(std::size_t k) const { return flicker_[k]; }
+  struct Measured {
+    SurfaceDistanceReport report;
+    double seconds;
+  };
+  const std::optional<Measured>& flicker(std::size_t k) const { return flicker_[k]; }
 
  private:
   enum Status : char { kPending, kDone, kFailed };
   std::vector<Status> status_;
   std::map<std::size_t, TriangleMesh> meshes_;
-  std::vector<std::optional<SurfaceDistanceReport>> flicker_;
+  std::map<std::size_t, double> caps_;
+  std::vector<std::optional<Measured>> flicker_;
 };
 
+/// The flicker report as JSON: the distances, the cap (null when none) and what the measure cost.
+nlohmann::ordered_json flicker_json(const SurfaceDistanceReport& f) {
+  nlohmann::ordered_json j = {{"mean", f.mean}, {"p95", f.p95}, {"max", f.max}, {"beyond_cap", f.beyond_cap}};
+  j["cap"] = std::isfinite(f.cap) ? nlohmann::ordered_json(f.cap) : nlohmann::ordered_json(nullptr);
+  j["triangle_tests"] = f.triangle_tests;
+  return j;
+}
+
 /// Adds the flicker against the previous frame to a frame's stats file.
-void add_flicker_to_stats(const std::string& path, int previous_frame, const SurfaceDistanceReport& f) {
+void add_flicker_to_stats(const std::string& path, int previous_frame, const SequenceFlicker::Measured& f) {
   nlohmann::ordered_json j = nlohmann::ordered_json::parse(read_text_file(path));
-  j["flicker"] = {{"previous_frame", previous_frame}, {"mean", f.mean}, {"p95", f.p95}, {"max", f.max}};
+  j["flicker"] = {{"previous_frame", previous_frame}};
+  j["flicker"].update(flicker_json(f.report));
+  j["flicker"]["seconds"] = f.seconds;
   write_text_file(path, j.dump(2) + "\n");
 }
 
@@ -351,8 +368,8 @@ int run_sequence(const SurfaceArgs& a, const FramePattern& in) {
   std::atomic<std::size_t> next{0};
   std::atomic<bool> stop{false};
   SequenceFlicker flicker(frames.size());
-  auto record_flicker = [&](std::size_t i, TriangleMesh* mesh) {  // with the mutex held
-    for (std::size_t k : flicker.settle(i, mesh))
+  auto record_flicker = [&](std::size_t i, TriangleMesh* mesh, double spacing) {  // with the mutex held
+    for (std::size_t k : flicker.settle(i, mesh, spacing))
       if (stats) add_flicker_to_stats(stats->format(frames[k]), frames[k - 1], *flicker.flicker(k));
   };
   const int jobs = std::max(1, std::min<int>(a.jobs, int(frames.size())));
@@ -373,14 +390,14 @@ int run_sequence(const SurfaceArgs& a, const FramePattern& in) {
         std::lock_guard lock(mutex);
         ++done;
         triangles += r.stats.triangles;
-        record_flicker(i, &r.mesh);
+        record_flicker(i, &r.mesh, r.params.spacing);
         bar.update(fmt::format("frame {}", frame), double(done) / double(frames.size()));
       } catch (const std::exception& e) {
         std::lock_guard lock(mutex);
         ++done;
         failed.push_back(frame);
         try {
-          record_flicker(i, nullptr);
+          record_flicker(i, nullptr, 0);
         } catch (const std::exception&) {
         }
         bar.finish();
@@ -396,13 +413,16 @@ int run_sequence(const SurfaceArgs& a, const FramePattern& in) {
   bar.finish();
   std::sort(failed.begin(), failed.end());
   const std::size_t ok = done - failed.size();
-  double flicker_sum = 0, flicker_max = 0;
+  double flicker_sum = 0, flicker_max = 0, flicker_seconds = 0;
   std::size_t flicker_count = 0;
   for (std::size_t k = 0; k < frames.size(); ++k)
-    if (const auto& f = flicker.flicker(k)) flicker_sum += f->mean, flicker_max = std::max(flicker_max, f->max), ++flicker_count;
+    if (const auto& f = flicker.flicker(k)) {
+      flicker_sum += f->report.mean, flicker_max = std::max(flicker_max, f->report.max), ++flicker_count;
+      flicker_seconds += f->seconds;
+    }
   if (!a.quiet && flicker_count > 0)
-    fmt::print(stderr, "flicker (vertex distance to the previous frame's surface): mean {:.4g} over {} frame pairs, max {:.4g}\n",
-               flicker_sum / double(flicker_count), flicker_count, flicker_max);
+    fmt::print(stderr, "flicker (vertex distance to the previous frame's surface): mean {:.4g} over {} frame pairs, max {:.4g}; measured in {:.3f}s\n",
+               flicker_sum / double(flicker_count), flicker_count, flicker_max, flicker_seconds);
   if (!a.quiet || !failed.empty())
     fmt::print(stderr, "{} of {} frames surfaced ({} triangles) in {:.2f}s{}{}\n", ok, frames.size(), triangles,
                seconds_since(t0), failed.empty() ? "" : fmt::format("; failed: {}", fmt::join(failed, ", ")),
@@ -573,7 +593,7 @@ int run_render(const RenderArgs& a) {
 
 struct InspectArgs {
   std::string mesh, particles, previous;
-  double r_inner = 0, r_outer = 0, spacing = 0;
+  double r_inner = 0, r_outer = 0, spacing = 0, flicker_cap = -1;
   bool json = false;
 };
 
@@ -600,6 +620,7 @@ int run_inspect(const InspectArgs& a) {
                  {"share_below_10", angles.share_below_10}};
   const double volume = signed_volume(mesh);
   j["volume"] = volume;
+  double spacing = a.spacing;  // known when given or estimated from the particles
   if (!a.particles.empty()) {
     const ParticleSet ps = read_particles(a.particles);
     Params in;
@@ -607,6 +628,7 @@ int run_inspect(const InspectArgs& a) {
     in.r_inner = a.r_inner;
     in.r_outer = a.r_outer;
     const Params p = resolve_params(ps, in);
+    spacing = p.spacing;
     const ConstraintReport c = constraint_residual(mesh.vertices, ps.positions, p.r_inner, p.r_outer);
     const std::size_t outside = points_outside(mesh, ps.positions);
     const double particle_volume = double(ps.size()) * p.spacing * p.spacing * p.spacing;
@@ -619,8 +641,15 @@ int run_inspect(const InspectArgs& a) {
                       {"volume_over_particle_volume", volume / particle_volume}};
   }
   if (!a.previous.empty()) {
-    const SurfaceDistanceReport f = distance_to_surface(mesh.vertices, read_mesh(a.previous));
-    j["flicker"] = {{"previous", a.previous}, {"mean", f.mean}, {"p95", f.p95}, {"max", f.max}};
+    const TriangleMesh previous = read_mesh(a.previous);
+    // The search distance: as given (0: none); else kFlickerCapSpacings spacings when the spacing
+    // is known; else kFlickerCapEdges mean edges of the previous mesh (about as far on ours).
+    double cap = a.flicker_cap == 0 ? INFINITY : a.flicker_cap;
+    if (a.flicker_cap < 0)
+      cap = spacing > 0 ? kFlickerCapSpacings * spacing : kFlickerCapEdges * mean_edge_length(previous);
+    const SurfaceDistanceReport f = distance_to_surface(mesh.vertices, previous, cap);
+    j["flicker"] = {{"previous", a.previous}};
+    j["flicker"].update(flicker_json(f));
   }
   if (a.json) {
     fmt::print("{}\n", j.dump(2));
@@ -647,10 +676,16 @@ int run_inspect(const InspectArgs& a) {
                q["outside_surface"].get<std::size_t>(), 100.0 * q["share_outside_surface"].get<double>(),
                q["volume_over_particle_volume"].get<double>());
   }
-  if (j.contains("flicker"))
-    fmt::print("flicker (distance of each vertex to {}): mean {:.4g}, 95th percentile {:.4g}, max {:.4g}\n",
-               a.previous, j["flicker"]["mean"].get<double>(), j["flicker"]["p95"].get<double>(),
-               j["flicker"]["max"].get<double>());
+  if (j.contains("flicker")) {
+    const auto& f = j["flicker"];
+    const std::size_t beyond = f["beyond_cap"].get<std::size_t>();
+    fmt::print("flicker (distance of each vertex to {}): mean {:.4g}, 95th percentile {:.4g}, max {:.4g}{}\n", a.previous,
+               f["mean"].get<double>(), f["p95"].get<double>(), f["max"].get<double>(),
+               beyond == 0 ? std::string()
+                           : fmt::format("; {} vertices ({:.1f} %) farther than the cap {:.4g}, counted at it", beyond,
+                                         100.0 * double(beyond) / double(std::max<std::size_t>(mesh.vertices.size(), 1)),
+                                         f["cap"].get<double>()));
+  }
   return 0;
 }
 
@@ -692,6 +727,10 @@ int main(int argc, char** argv) {
   inspect_cmd->add_option("--r-outer", inspect.r_outer, "outer constraint radius (default 1.0 d)")->check(CLI::PositiveNumber);
   inspect_cmd->add_option("--previous", inspect.previous,
                           "the previous frame's mesh: flicker = distance of each vertex to its surface");
+  inspect_cmd->add_option("--flicker-cap", inspect.flicker_cap,
+                          "with --previous: distances are searched up to this far, farther vertices count at it "
+                          "(default 4 spacings, or 16 mean edges of the previous mesh; 0: no cap)")
+      ->check(CLI::NonNegativeNumber);
   inspect_cmd->add_flag("--json", inspect.json, "print the metrics as JSON");
   CLI::App* info_cmd = app.add_subcommand("info", "version, backends, threads and formats");
   RenderArgs render;

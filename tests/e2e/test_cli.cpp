@@ -1,6 +1,7 @@
 // End-to-end tests of the meniscus command line: the surface job, its stats, and refusals.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -215,6 +216,80 @@ TEST(Cli, InspectReportsTheQualityOfAnyMesh) {
   EXPECT_NE(out.find("watertight"), std::string::npos) << out;
   EXPECT_NE(run_command(cli() + " inspect " + tmp.file("missing.ply"), &out), 0);
   EXPECT_NE(out.find("missing.ply"), std::string::npos) << out;
+}
+
+// Frames that jump — another scene, one particle after a full frame, a frame moved far away —
+// as one sequence: the flicker against each previous frame is measured in bounded work (the old
+// grid search took minutes on the first pair), counted at its cap where the frames are apart.
+TEST(Cli, SequenceOfDissimilarFramesMeasuresFlickerInBoundedTime) {
+  TempDir tmp;
+  std::filesystem::create_directory(tmp.path / "sim");
+  std::filesystem::copy_file(test::data_file("ply/dam_break_frame_23_24389_particles.ply"), tmp.file("sim/f_0001.ply"));
+  std::filesystem::copy_file(test::data_file("ply/double_dam_break_frame_26_4732_particles.ply"), tmp.file("sim/f_0002.ply"));
+  TriangleMesh points;  // a PLY of vertices only reads back as particles
+  points.vertices = {{0.5f, 0.3f, 0.2f}};
+  write_mesh(tmp.file("sim/f_0003.ply"), points);
+  points.vertices = read_particles(tmp.file("sim/f_0001.ply")).positions;
+  for (Vec3f& p : points.vertices) p += Vec3f{100, 0, 0};
+  write_mesh(tmp.file("sim/f_0004.ply"), points);
+
+  std::string out;
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_EQ(run_command(cli() + " surface '" + tmp.file("sim/f_####.ply") + "' -o '" + tmp.file("m_####.ply") +
+                            "' --stats '" + tmp.file("s_####.json") + "' --spacing 0.05",
+                        &out),
+            0)
+      << out;
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_LT(seconds, 60) << "a sequence of four small frames";
+  EXPECT_NE(out.find("4 of 4 frames"), std::string::npos) << out;
+  EXPECT_NE(out.find("flicker"), std::string::npos) << out;
+  for (int f = 2; f <= 4; ++f) {
+    const auto j = nlohmann::json::parse(std::ifstream(tmp.file("s_000" + std::to_string(f) + ".json")));
+    ASSERT_TRUE(j.contains("flicker")) << f;
+    const auto& fl = j["flicker"];
+    const double vertices = j["vertices"].get<double>();
+    EXPECT_EQ(fl["previous_frame"].get<int>(), f - 1);
+    EXPECT_NEAR(fl["cap"].get<double>(), kFlickerCapSpacings * 0.05, 1e-9);
+    // The work: a few dozen point–triangle tests per vertex at most, whatever the two frames are.
+    EXPECT_LT(fl["triangle_tests"].get<double>(), 32 * vertices) << f;
+    // The time: never more than surfacing the frame itself (plus a little for tiny frames).
+    EXPECT_LT(fl["seconds"].get<double>(), j["total_seconds"].get<double>() + 0.05) << f;
+    EXPECT_LE(fl["max"].get<double>(), fl["cap"].get<double>());
+  }
+  const auto far = nlohmann::json::parse(std::ifstream(tmp.file("s_0004.json")));
+  EXPECT_EQ(far["flicker"]["beyond_cap"].get<double>(), far["vertices"].get<double>()) << "frame 4 is 100 units away";
+  EXPECT_EQ(far["flicker"]["triangle_tests"].get<double>(), 0);
+}
+
+TEST(Cli, InspectFlickerBetweenUnrelatedMeshesIsCapped) {
+  TempDir tmp;
+  std::string out;
+  ASSERT_EQ(run_command(cli() + " surface " + sample() + " -o " + tmp.file("a.ply") + " -q", &out), 0) << out;
+  ASSERT_EQ(run_command(cli() + " surface " + test::data_file("ply/double_dam_break_frame_26_4732_particles.ply") +
+                            " -o " + tmp.file("b.ply") + " -q",
+                        &out),
+            0)
+      << out;
+  ASSERT_EQ(run_command(cli() + " inspect " + tmp.file("a.ply") + " --previous " + tmp.file("b.ply") + " --json", &out), 0)
+      << out;
+  const auto capped = nlohmann::json::parse(out)["flicker"];
+  const double cap = kFlickerCapEdges * mean_edge_length(read_mesh(tmp.file("b.ply")));
+  EXPECT_NEAR(capped["cap"].get<double>(), cap, 1e-6 * cap);
+  EXPECT_GT(capped["beyond_cap"].get<double>(), 0);
+  ASSERT_EQ(run_command(cli() + " inspect " + tmp.file("a.ply") + " --previous " + tmp.file("b.ply") +
+                            " --flicker-cap 0 --json",
+                        &out),
+            0)
+      << out;
+  const auto exact = nlohmann::json::parse(out)["flicker"];
+  EXPECT_TRUE(exact["cap"].is_null());
+  EXPECT_EQ(exact["beyond_cap"].get<int>(), 0);
+  EXPECT_GT(exact["max"].get<double>(), cap);
+  EXPECT_GT(exact["triangle_tests"].get<double>(), capped["triangle_tests"].get<double>());
+  // The human-readable form says how many vertices lie beyond the cap.
+  ASSERT_EQ(run_command(cli() + " inspect " + tmp.file("a.ply") + " --previous " + tmp.file("b.ply"), &out), 0) << out;
+  EXPECT_NE(out.find("farther than the cap"), std::string::npos) << out;
 }
 
 TEST(Cli, InfoListsVersionBackendsAndFormats) {

@@ -34,8 +34,9 @@ Box bounds(std::span<const Vec3f> points) {
 /// The triangles of `surface` whose bounding boxes reach into `box`: with a cap, the only ones a
 /// query from inside the box (grown by the cap) can find. One pass over the triangles, so the
 /// BVH costs what the part of the surface near the points costs, not the whole previous frame
-/// (one droplet after a full frame builds a BVH of a few triangles).
-std::vector<Triangle> triangles_near(const TriangleMesh& surface, const Box& box) {
+/// (one droplet after a full frame builds a BVH of a few triangles). Returns false, and leaves
+/// `kept` empty, when every triangle is near (no copy then).
+bool triangles_near(const TriangleMesh& surface, const Box& box, std::vector<Triangle>& kept) {
   const auto& v = surface.vertices;
   const auto& t = surface.triangles;
   const auto near = [&](std::size_t i) {
@@ -46,9 +47,11 @@ std::vector<Triangle> triangles_near(const TriangleMesh& surface, const Box& box
            hi.z >= box.lo.z;
   };
   std::vector<std::size_t> offsets;
-  std::vector<Triangle> kept(detail::chunk_offsets(t.size(), near, offsets));
+  const std::size_t count = detail::chunk_offsets(t.size(), near, offsets);
+  if (count == t.size()) return false;
+  kept.resize(count);
   detail::for_each_set(t.size(), near, offsets, [&](std::size_t i, std::size_t rank) { kept[rank] = t[i]; });
-  return kept;
+  return true;
 }
 
 }  // namespace
@@ -64,8 +67,7 @@ SurfaceDistanceReport distance_to_surface(std::span<const Vec3f> points, const T
   if (reach < INFINITY) {
     Box box = bounds(points);
     box.lo -= Vec3f{reach, reach, reach}, box.hi += Vec3f{reach, reach, reach};
-    near = triangles_near(surface, box);
-    searched = near;
+    if (triangles_near(surface, box, near)) searched = near;
   }
   const TriangleBvh bvh(surface.vertices, searched);
   std::vector<float> dist(points.size());

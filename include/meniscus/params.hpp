@@ -31,7 +31,7 @@ Backend parse_backend(const std::string& name);
 
 struct Params {
   // --- geometry -------------------------------------------------------------------------------
-  double spacing = 0;          ///< particle separation d; 0: median nearest-neighbour distance
+  double spacing = 0;          ///< particle separation d; 0: estimated (estimate_spacing in reconstruct.hpp)
   double voxel_size = 0;       ///< field resolution h; 0: d / (2 · detail)
   /// Resolution multiplier when voxel_size is 0, in (0, 8]: 2 halves the voxel size (about 4×
   /// the triangles, 8× the field memory), 0.5 doubles it. Ignored when voxel_size is given.
@@ -55,7 +55,7 @@ struct Params {
   double kernel_radius = 0;
   /// Laplacian smoothing of the particle positions before the field, x ← (1−λ)x + λ·(weighted
   /// mean of the neighbours within 2d, weights 1 − (r/2d)³); the constraints use the smoothed
-  /// positions. −1: derive (0.9 for anisotropic as Yu & Turk's kernel centres, 0 otherwise).
+  /// positions. −1: derive (0.3 for anisotropic, where it smooths Yu & Turk's kernel centres; 0 otherwise).
   double smooth_particles = -1;
   /// Keep interior voids smaller than (2d)³ (closed inward-facing components: gaps in the
   /// particle sampling, which the smoothing would collapse); by default they are removed.

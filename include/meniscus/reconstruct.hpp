@@ -66,8 +66,8 @@ struct Result {
 /// parameters, ResourceError when the job would not fit in memory.
 Result reconstruct(const ParticleSet& particles, const Params& params, const ProgressFn& progress = {});
 
-/// Fills in every derived (zero) parameter of `params` for these particles: spacing (median
-/// nearest-neighbour distance), voxel size, radii, transfer radius, threads; then validates.
+/// Fills in every derived (zero) parameter of `params` for these particles: spacing
+/// (estimate_spacing), voxel size, radii, transfer radius, threads; then validates.
 Params resolve_params(const ParticleSet& particles, const Params& params);
 
 /// The particle spacing: the larger of the median nearest-neighbour distance (exact for

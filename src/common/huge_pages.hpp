@@ -4,7 +4,7 @@
 // hundreds of MB and are read at random (by triangle corner): with 4 KiB pages most of those reads
 // miss the TLB. Where the system leaves THP to the program (`madvise` mode, Debian's default),
 // asking for it on these arrays cut the void pass by about a fifth and the mesh write by about a
-// quarter on splash 1M (bench/RESULTS.md). The smoothing's per-vertex arrays (adjacency, operator,
+// quarter on splash 1M. The smoothing's per-vertex arrays (adjacency, operator,
 // constraint caches, W x, colour classes, the reordered mesh) are read at random some sixty times
 // each: on huge pages its sweeps took about 4 % less on splash 1M. Arrays written once in order
 // and then streamed (the field, the march pages, the weld's keys, the radix scratch) are better
@@ -90,7 +90,7 @@ inline void advise_huge_pages(void* data, std::size_t bytes) {
 /// `resize` or `assign` that value-initialises a fresh array faults it in from the calling thread
 /// alone: on splash 1M without smoothing those serial faults — the vertex positions, the
 /// triangles, the weld's and radix sort's scratch, the field's values, the normals — took about
-/// 1 s of the main thread while the other core waited (bench/RESULTS.md). Where the call is not
+/// 1 s of the main thread while the other core waited. Where the call is not
 /// supported it does nothing and the pages fault in at their first write, as before.
 inline void populate_pages(void* data, std::size_t bytes) {
 #if defined(__linux__) && defined(MADV_POPULATE_WRITE)

@@ -1,6 +1,6 @@
-// meniscus — the block-parallel two-pass driver shared by the extractors (Williams 2008;
-// Edespong 2010 §4.3: count the triangles of each block, prefix sum, then write): each block
-// first gathers the inside masks of its cells plus a one-cell halo from up to 26 neighbour blocks,
+// meniscus — the block-parallel driver shared by the extractors (Williams 2008; Edespong 2010
+// §4.3 counts, scans and writes; the CPU marches each block once, each thread into its own pages,
+// see MarchedCorners): each block first gathers the inside masks of its cells plus a one-cell halo from up to 26 neighbour blocks,
 // so the per-cell kernels (marching_impl.hpp) never touch the field's hash index.
 #pragma once
 

@@ -1,8 +1,9 @@
 // meniscus — iso-surface extraction from the sparse field: Marching Tiles (Williams 2008,
 // the A15 acute tetrahedral tile), Marching Cubes (Lorensen & Cline 1987) and Marching
-// Tetrahedra (Doi & Koide 1991, Kuhn 6-tetrahedra split). Two passes over the field's blocks
-// (count, prefix sum, write); vertices are keyed by the integer id of the lattice edge they lie
-// on and welded by sorting those keys, so the mesh is watertight wherever the band is closed.
+// Tetrahedra (Doi & Koide 1991, Kuhn 6-tetrahedra split). One pass over the field's blocks
+// (the CUDA backend counts, scans and writes); vertices are the lattice edges that cross the
+// surface, numbered in edge-key order from per-row counts (weld.hpp), so the mesh is watertight
+// wherever the band is closed.
 #pragma once
 
 #include <cstddef>

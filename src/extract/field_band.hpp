@@ -11,7 +11,7 @@
 namespace meniscus {
 
 /// The longest lattice edge the extractor interpolates along: the A15 tile's tetrahedron edges
-/// (from its table; √5/4 of the tile period 2h), the cube's axis edges, or the Kuhn tetrahedra's
+/// (from its table; √6/4 of the tile period 2h), the cube's axis edges, or the Kuhn tetrahedra's
 /// cube diagonals.
 inline double longest_extraction_edge(Extractor extract, double h) {
   switch (extract) {

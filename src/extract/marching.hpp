@@ -55,7 +55,7 @@ struct BlockEdgeCodes {
 /// edge_key(b, block_edges[b][block_corners[b][c]])): both in pages each thread filled as it
 /// marched (one pass, no count pass, no copy; the corners' keys themselves never leave the
 /// thread's cache). Two bytes an edge and two a corner instead of 8 and 4: on splash 1M the pages
-/// held 440 MB at the run's peak, beside the weld's copies of them (bench/RESULTS.md).
+/// held 440 MB at the run's peak, beside the weld's copies of them.
 struct MarchedCorners {
   std::vector<std::unique_ptr<uint16_t[]>> edge_pages;
   std::vector<std::unique_ptr<uint16_t[]>> corner_pages;

@@ -281,7 +281,7 @@ void weld_packed(std::vector<uint64_t>& corner_keys, const DenseEdgeKeys& dense,
 /// mesh as sorting all the corners' keys (weld_packed; tested), without the sort, its scratch
 /// copy, the packed keys or the per-vertex key array, and the positions are computed where the
 /// block's field values are at hand: splash 1M's weld 0.61-0.68 -> 0.30-0.45 s (0.10-0.25 of it
-/// faulting in the mesh's arrays), its extraction's peak 1003 -> 949 MB (bench/RESULTS.md).
+/// faulting in the mesh's arrays), its extraction's peak 1003 -> 949 MB.
 void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, ExtractResult& result) {
   TriangleMesh& mesh = result.mesh;
   const std::size_t blocks = m.origins.size();

@@ -124,7 +124,7 @@ class CachedParticleLists {
 /// projected by two threads at once. Two particles a list (20 bytes a vertex with the packed
 /// record and the slack): as fast as four or eight in splash and block runs — the slack test ends
 /// most projections, and the nearest particle rarely changes between refreshes — and 8 bytes a
-/// vertex less than four, through the whole smoothing (bench/RESULTS.md).
+/// vertex less than four, through the whole smoothing.
 class NeighbourCache : public CachedParticleLists<2, PackedParticleList> {
  public:
   /// Lists, for every vertex, the particles nearest to its current position.

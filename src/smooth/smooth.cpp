@@ -59,7 +59,7 @@ struct ClassRuns {
 /// the rings read (positions, W x) would otherwise come in line by line at random within the
 /// chunk, a miss each — and the whole mesh streams through the cache between two classes, so it
 /// does so for every class. Prefetching the chunk (and the next, which the thread reaches while
-/// it loads) streams it in instead: 6–8 % off the splash 300k smoothing (bench/RESULTS.md).
+/// it loads) streams it in instead: 6–8 % off the splash 300k smoothing.
 template <class F, class P, class PC>
 void for_each_in_colors(const ClassRuns& classes, F&& f, P&& prefetch, PC&& prefetch_chunk) {
   constexpr uint32_t kAhead = 8;
@@ -107,8 +107,7 @@ double energy_of(const Adjacency& adj, const CotanOperator& op, std::span<const 
 /// chunk is still a patch of the surface, so the rings it reads stay in cache from one class to
 /// the next. The result is bit-identical: updates within a class are independent, the rows keep
 /// their entries in the original order (renumber_adjacency) and the sums over all vertices run in
-/// the original numbering (`rank`). On splash 300k the sweeps took about a tenth less
-/// (bench/RESULTS.md).
+/// the original numbering (`rank`). On splash 300k the sweeps took about a tenth less.
 struct SweepLayout {
   std::vector<uint32_t> order;  ///< new index → original index (empty: not renumbered; handed to the adjacency as tri_row)
   std::vector<uint32_t> rank;   ///< original index → new index (empty: not renumbered)

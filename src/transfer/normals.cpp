@@ -67,7 +67,7 @@ std::vector<Vec3f> vertex_normals(std::span<const Vec3f> x, std::span<const Tria
   // by block while its vertices are in row order, so a block's corners are spread over a dozen
   // rows of the arrays (splash 1M: 0.25-0.27 -> 0.16-0.18 s; 16 ahead 0.20 s, 32 ahead 0.17 s).
   // The triangles themselves stream in with software prefetch (common/prefetch.hpp), as in the
-  // range pass above and the normalisation below: on the Intel guest of bench/RESULTS.md the
+  // range pass above and the normalisation below: on the Intel host of the benchmarks the
   // stage took 0.20 -> 0.115 s on splash 1M (ranges 0.078 -> 0.021 s, scatter 0.063 -> 0.054 s,
   // normalisation 0.037 -> 0.015 s).
   constexpr std::size_t kAhead = 64;

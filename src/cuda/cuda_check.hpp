@@ -1,12 +1,16 @@
-// meniscus — CUDA error checking and device memory ownership for the CUDA backend. Every runtime
-// call goes through MENISCUS_CUDA_CHECK, which throws CudaError (file, line, the call and the CUDA
-// error string) — the library never exits. DeviceBuffer owns one cudaMalloc allocation (RAII,
-// move-only), so every path out of a stage, exceptions included, frees device memory.
+// meniscus — CUDA error checking, launches, and device memory ownership for the CUDA backend.
+// Every runtime call goes through MENISCUS_CUDA_CHECK, which throws CudaError (file, line, the
+// call and the CUDA error string) — the library never exits. Every kernel launch goes through
+// MENISCUS_LAUNCH (no raw <<< >>> in the sources: a test checks it), which counts it and, in the
+// emulated device's build (MENISCUS_CUDA_EMULATION), runs it on the CPU. DeviceBuffer owns one
+// cudaMalloc allocation (RAII, move-only), so every path out of a stage, exceptions included,
+// frees device memory.
 #pragma once
 
 #include <cuda_runtime.h>
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <utility>
 
@@ -20,11 +24,43 @@
                                   std::string(#call) + ": " + cudaGetErrorString(meniscus_cuda_status_)); \
   } while (0)
 
+/// MENISCUS_LAUNCH(kernel, grid, block)(arguments…): kernel<<<grid, block>>>(arguments…), counted;
+/// on the emulated device, a run of every block on the CPU.
+#if defined(MENISCUS_CUDA_EMULATION)
+#define MENISCUS_LAUNCH(kernel, grid, block) \
+  ::meniscus::cuda::count_launch(), ::meniscus::cuda::emulation::launch(kernel, dim3(grid), dim3(block))
+#else
+#define MENISCUS_LAUNCH(kernel, grid, block) ::meniscus::cuda::count_launch(), kernel<<<(grid), (block)>>>
+#endif
+
 /// Checks the launch of the kernel just queued (configuration errors; faults surface at the next
 /// synchronising call, which is checked too).
 #define MENISCUS_CUDA_CHECK_LAUNCH() MENISCUS_CUDA_CHECK(cudaGetLastError())
 
 namespace meniscus::cuda {
+
+/// What the host asked of the device, counted per host thread (a reconstruction runs on one):
+/// kernel launches, copies each way, memsets, and the calls after which the host waits for the
+/// device — a copy to the host or an event synchronisation: the round trips. A stage's counts
+/// are the difference of two readings.
+struct DeviceCalls {
+  uint64_t launches = 0, uploads = 0, downloads = 0, device_copies = 0, memsets = 0, waits = 0;
+};
+inline thread_local DeviceCalls device_calls;
+
+inline void count_launch() { ++device_calls.launches; }
+
+/// cudaMemcpy and cudaMemset, counted (the sources call no others).
+inline cudaError_t counted_memcpy(void* dst, const void* src, std::size_t bytes, cudaMemcpyKind kind) {
+  if (kind == cudaMemcpyHostToDevice) ++device_calls.uploads;
+  if (kind == cudaMemcpyDeviceToHost) ++device_calls.downloads, ++device_calls.waits;
+  if (kind == cudaMemcpyDeviceToDevice) ++device_calls.device_copies;
+  return cudaMemcpy(dst, src, bytes, kind);
+}
+inline cudaError_t counted_memset(void* p, int value, std::size_t bytes) {
+  ++device_calls.memsets;
+  return cudaMemset(p, value, bytes);
+}
 
 template <class T>
 class DeviceBuffer {
@@ -52,25 +88,25 @@ class DeviceBuffer {
     size_ = n;
   }
   void zero() {
-    if (size_ > 0) MENISCUS_CUDA_CHECK(cudaMemset(data_, 0, size_ * sizeof(T)));
+    if (size_ > 0) MENISCUS_CUDA_CHECK(counted_memset(data_, 0, size_ * sizeof(T)));
   }
   void upload(const T* host, std::size_t n) {
     resize(n);
-    if (n > 0) MENISCUS_CUDA_CHECK(cudaMemcpy(data_, host, n * sizeof(T), cudaMemcpyHostToDevice));
+    if (n > 0) MENISCUS_CUDA_CHECK(counted_memcpy(data_, host, n * sizeof(T), cudaMemcpyHostToDevice));
   }
   void download(T* host, std::size_t n) const {
     if (n > size_) throw ResourceError("DeviceBuffer::download: more elements than the buffer holds");
-    if (n > 0) MENISCUS_CUDA_CHECK(cudaMemcpy(host, data_, n * sizeof(T), cudaMemcpyDeviceToHost));
+    if (n > 0) MENISCUS_CUDA_CHECK(counted_memcpy(host, data_, n * sizeof(T), cudaMemcpyDeviceToHost));
   }
   /// One element (a count, a flag) back to the host.
   T get(std::size_t i) const {
     T v{};
-    MENISCUS_CUDA_CHECK(cudaMemcpy(&v, data_ + i, sizeof(T), cudaMemcpyDeviceToHost));
+    MENISCUS_CUDA_CHECK(counted_memcpy(&v, data_ + i, sizeof(T), cudaMemcpyDeviceToHost));
     return v;
   }
   void copy_from(const DeviceBuffer& o) {
     resize(o.size_);
-    if (size_ > 0) MENISCUS_CUDA_CHECK(cudaMemcpy(data_, o.data_, size_ * sizeof(T), cudaMemcpyDeviceToDevice));
+    if (size_ > 0) MENISCUS_CUDA_CHECK(counted_memcpy(data_, o.data_, size_ * sizeof(T), cudaMemcpyDeviceToDevice));
   }
   T* data() { return data_; }
   const T* data() const { return data_; }

@@ -12,11 +12,9 @@ namespace meniscus::cuda {
 
 namespace {
 
-__constant__ float c_sample_offsets[8][3];
-
 __global__ void band_block_count_kernel(const uint64_t* cells, uint32_t n, float cell_size, float band,
                                         float block_size, uint64_t* counts) {
-  for (uint32_t i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x) {
+  MENISCUS_GRID_STRIDE(i, n) {
     const Vec3i c = unpack_coords(cells[i]);
     uint64_t count = 1;
     for (int a = 0; a < 3; ++a) {
@@ -30,7 +28,7 @@ __global__ void band_block_count_kernel(const uint64_t* cells, uint32_t n, float
 
 __global__ void band_block_write_kernel(const uint64_t* cells, uint32_t n, float cell_size, float band,
                                         float block_size, const uint64_t* offsets, uint64_t* keys) {
-  for (uint32_t i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x) {
+  MENISCUS_GRID_STRIDE(i, n) {
     const Vec3i c = unpack_coords(cells[i]);
     int32_t lo[3], hi[3];
     for (int a = 0; a < 3; ++a) band_block_range(c[a], cell_size, band, block_size, &lo[a], &hi[a]);
@@ -43,7 +41,7 @@ __global__ void band_block_write_kernel(const uint64_t* cells, uint32_t n, float
 
 /// One thread block per field block; thread t handles samples t, t + blockDim, ….
 __global__ void distance_kernel(GridView grid, const uint64_t* block_keys, int n, int spc, float a, float band,
-                                float* values) {
+                                SampleOffsets offsets, float* values) {
   const uint64_t b = blockIdx.x;
   const Vec3i bc = unpack_coords(block_keys[b]);
   const Vec3i origin{bc.x * n, bc.y * n, bc.z * n};
@@ -55,7 +53,7 @@ __global__ void distance_kernel(GridView grid, const uint64_t* block_keys, int n
     const int cell = idx / spc, s = idx % spc;
     const Vec3i l{cell % n, (cell / n) % n, cell / (n * n)};
     const Vec3i g{origin.x + l.x, origin.y + l.y, origin.z + l.z};
-    const float off[3] = {c_sample_offsets[s][0], c_sample_offsets[s][1], c_sample_offsets[s][2]};
+    const float off[3] = {offsets.o[s][0], offsets.o[s][1], offsets.o[s][2]};
     float d2 = band2;
     grid_for_each_in_cells_of_box(grid, box_lo - Vec3f{band, band, band}, box_hi + Vec3f{band, band, band},
                                   [&](uint32_t pi) {
@@ -74,25 +72,21 @@ __global__ void distance_kernel(GridView grid, const uint64_t* block_keys, int n
 
 /// One thread block per field block; thread t handles samples t, t + blockDim, ….
 __global__ void kernel_field_kernel(GridView grid, KernelParticles k, const uint64_t* block_keys, int n, int spc,
-                                    float a, float support, float iso, float background, float* values) {
+                                    float a, float support, float iso, float background, SampleOffsets offsets,
+                                    float* values) {
   const uint64_t b = blockIdx.x;
   const Vec3i bc = unpack_coords(block_keys[b]);
   const Vec3i origin{bc.x * n, bc.y * n, bc.z * n};
   for (int idx = threadIdx.x; idx < kBlockSamples; idx += blockDim.x) {
     const int cell = idx / spc, s = idx % spc;
     const Vec3i g{origin.x + cell % n, origin.y + (cell / n) % n, origin.z + cell / (n * n)};
-    const float off[3] = {c_sample_offsets[s][0], c_sample_offsets[s][1], c_sample_offsets[s][2]};
+    const float off[3] = {offsets.o[s][0], offsets.o[s][1], offsets.o[s][2]};
     values[b * kBlockSamples + uint64_t(idx)] = kernel_field_sample(grid, k, support, iso, background, origin, n, a, g, off);
   }
 }
 
-/// A field of `block_count` blocks (values not yet written), with the lattice's sample offsets
-/// uploaded for the kernels that fill it.
+/// A field of `block_count` blocks (values not yet written).
 DeviceField new_field(const SampleLattice& lattice, float background, std::size_t block_count) {
-  float offsets[8][3] = {};
-  for (int s = 0; s < lattice.samples_per_cell(); ++s)
-    for (int a = 0; a < 3; ++a) offsets[s][a] = lattice.sample_offset(s)[a];
-  MENISCUS_CUDA_CHECK(cudaMemcpyToSymbol(c_sample_offsets, offsets, sizeof(offsets)));
   DeviceField f;
   f.lattice = lattice;
   f.background = background;
@@ -107,13 +101,13 @@ DeviceBuffer<uint64_t> band_blocks(const DeviceGrid& grid, const SampleLattice& 
                                    std::size_t* block_count) {
   const float block_size = lattice.cell_size * float(lattice.block_cells());
   DeviceBuffer<uint64_t> counts(std::size_t(grid.cells) + 1), offsets(std::size_t(grid.cells) + 1);
-  band_block_count_kernel<<<blocks_for(grid.cells), 256>>>(grid.keys.data(), grid.cells, grid.cell_size, band,
+  MENISCUS_LAUNCH(band_block_count_kernel, blocks_for(grid.cells), 256)(grid.keys.data(), grid.cells, grid.cell_size, band,
                                                            block_size, counts.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   exclusive_sum(counts.data(), offsets.data(), grid.cells);
   const uint64_t total = offsets.get(grid.cells);
   DeviceBuffer<uint64_t> keys(total);
-  band_block_write_kernel<<<blocks_for(grid.cells), 256>>>(grid.keys.data(), grid.cells, grid.cell_size, band,
+  MENISCUS_LAUNCH(band_block_write_kernel, blocks_for(grid.cells), 256)(grid.keys.data(), grid.cells, grid.cell_size, band,
                                                            block_size, offsets.data(), keys.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   sort_keys(keys, total);
@@ -125,9 +119,9 @@ DeviceField distance_field(const DeviceGrid& grid, const SampleLattice& lattice,
                            DeviceBuffer<uint64_t> keys, std::size_t block_count) {
   DeviceField f = new_field(lattice, band, block_count);
   if (block_count > 0) {
-    distance_kernel<<<unsigned(block_count), 128>>>(grid.view(), keys.data(), lattice.block_cells(),
+    MENISCUS_LAUNCH(distance_kernel, unsigned(block_count), 128)(grid.view(), keys.data(), lattice.block_cells(),
                                                     lattice.samples_per_cell(), lattice.cell_size, band,
-                                                    f.values.data());
+                                                    SampleOffsets(lattice), f.values.data());
     MENISCUS_CUDA_CHECK_LAUNCH();
   }
   f.keys = std::move(keys);
@@ -138,9 +132,9 @@ DeviceField kernel_field(const DeviceGrid& grid, const SampleLattice& lattice, c
                          float iso, float background, DeviceBuffer<uint64_t> keys, std::size_t block_count) {
   DeviceField f = new_field(lattice, background, block_count);
   if (block_count > 0) {
-    kernel_field_kernel<<<unsigned(block_count), 128>>>(grid.view(), k, keys.data(), lattice.block_cells(),
+    MENISCUS_LAUNCH(kernel_field_kernel, unsigned(block_count), 128)(grid.view(), k, keys.data(), lattice.block_cells(),
                                                         lattice.samples_per_cell(), lattice.cell_size, support, iso,
-                                                        background, f.values.data());
+                                                        background, SampleOffsets(lattice), f.values.data());
     MENISCUS_CUDA_CHECK_LAUNCH();
   }
   f.keys = std::move(keys);

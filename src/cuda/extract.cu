@@ -4,7 +4,10 @@
 // CPU's order — and the write pass with the shared kernels of marching_impl.hpp; then the weld:
 // a stable sort of the corner edge keys, one vertex per distinct key (increasing key order, as on
 // the CPU), positions from the field. Also the small-void removal of mesh/voids.cpp.
+#include <mutex>
+
 #include "cuda/primitives.hpp"
+#include "cuda/relaxed.hpp"
 #include "cuda/stages_cuda.hpp"
 #include "mesh/ray_parity_impl.hpp"
 #include "extract/edge_key.hpp"
@@ -20,7 +23,6 @@ namespace {
 __device__ uint64_t d_tables_storage[(sizeof(MarchingTables) + 7) / 8];
 #define d_tables (*reinterpret_cast<const MarchingTables*>(d_tables_storage))
 __device__ TileVertexLookup d_tile_lookup;
-__constant__ float c_offsets[8][3];
 
 __global__ void masks_kernel(const float* values, uint64_t samples, int spc, float iso, uint8_t* masks) {
   const uint64_t cells = samples / uint64_t(spc);
@@ -40,9 +42,9 @@ __device__ bool block_has_inside(const uint8_t* masks, uint32_t b, int cells) {
 /// Ghost blocks: unallocated neighbours (on the stencil's side) of blocks with an inside sample.
 __global__ void ghost_kernel(const uint64_t* keys, uint32_t blocks, const uint8_t* masks, int cells, bool full,
                              const uint64_t* offsets, uint64_t* out, uint32_t* counts) {
-  for (uint32_t b = blockIdx.x * blockDim.x + threadIdx.x; b < blocks; b += gridDim.x * blockDim.x) {
+  MENISCUS_GRID_STRIDE(b, blocks) {
     uint32_t n = 0;
-    if (block_has_inside(masks, b, cells)) {
+    if (block_has_inside(masks, uint32_t(b), cells)) {
       const Vec3i c = unpack_coords(keys[b]);
       for (int dz = -1; dz <= 1; ++dz)
         for (int dy = -1; dy <= 1; ++dy)
@@ -60,7 +62,7 @@ __global__ void ghost_kernel(const uint64_t* keys, uint32_t blocks, const uint8_
 }
 
 __global__ void key_range_kernel(const uint64_t* keys, uint32_t blocks, int n, int* bad) {
-  for (uint32_t b = blockIdx.x * blockDim.x + threadIdx.x; b < blocks; b += gridDim.x * blockDim.x) {
+  MENISCUS_GRID_STRIDE(b, blocks) {
     const Vec3i c = unpack_coords(keys[b]);
     for (int a = 0; a < 3; ++a) {
       const int64_t first = int64_t(c[a]) * n, last = first + n - 1;
@@ -80,9 +82,9 @@ __global__ void march_kernel(const uint64_t* march_keys, const uint64_t* field_k
   const int p = n + 2, cells = n * n * n;
   const uint64_t b = blockIdx.x;
   const Vec3i bc = unpack_coords(march_keys[b]);
-  if (threadIdx.x < 27) {
-    const int dx = int(threadIdx.x % 3) - 1, dy = int(threadIdx.x / 3 % 3) - 1, dz = int(threadIdx.x / 9) - 1;
-    neighbour[threadIdx.x] = find_sorted(field_keys, field_blocks, pack_coords(bc.x + dx, bc.y + dy, bc.z + dz));
+  for (unsigned k = threadIdx.x; k < 27; k += blockDim.x) {  // whatever the block size
+    const int dx = int(k % 3) - 1, dy = int(k / 3 % 3) - 1, dz = int(k / 9) - 1;
+    neighbour[k] = find_sorted(field_keys, field_blocks, pack_coords(bc.x + dx, bc.y + dy, bc.z + dz));
   }
   __syncthreads();
   for (int i = threadIdx.x; i < p * p * p; i += blockDim.x) {
@@ -137,14 +139,15 @@ __global__ void weld_scatter_kernel(const uint64_t* keys, const uint32_t* corner
 }
 
 __global__ void vertex_position_kernel(const uint64_t* vertex_keys, uint64_t nv, FieldView field, bool a15,
-                                       float cell_size, float iso, Vec3f* vertices) {
+                                       float cell_size, float iso, SampleOffsets offsets, Vec3f* vertices) {
+  const float(*c_offsets)[3] = offsets.o;
   const LatticeEdge* types = a15 ? d_tables.a15_edges.types : d_tables.kuhn_edges.types;
   MENISCUS_GRID_STRIDE(v, nv) {
     Vec3i c0, c1;
     int s0 = 0, s1 = 0;
     edge_key_samples(vertex_keys[v], types, &c0, &s0, &c1, &s1);
     const float t = edge_parameter(field.value(c0, s0), field.value(c1, s1), iso, kEdgeClamp);
-    // SampleLattice::sample_position, with the offsets from constant memory.
+    // SampleLattice::sample_position, with the offsets passed by value.
     const Vec3f p0 = Vec3f{float(c0.x) + c_offsets[s0][0], float(c0.y) + c_offsets[s0][1], float(c0.z) + c_offsets[s0][2]} *
                      cell_size;
     const Vec3f p1 = Vec3f{float(c1.x) + c_offsets[s1][0], float(c1.y) + c_offsets[s1][1], float(c1.z) + c_offsets[s1][2]} *
@@ -160,15 +163,16 @@ __global__ void repeated_kernel(const uint32_t* tris, uint64_t nt, unsigned long
   }
 }
 
-void upload_tables(const SampleLattice& lattice) {
-  static const MarchingTables tables = host_marching_tables();
-  static constexpr TileVertexLookup lookup = make_tile_vertex_lookup(6, 36);
-  MENISCUS_CUDA_CHECK(cudaMemcpyToSymbol(d_tables_storage, &tables, sizeof(tables)));
-  MENISCUS_CUDA_CHECK(cudaMemcpyToSymbol(d_tile_lookup, &lookup, sizeof(lookup)));
-  float offsets[8][3] = {};
-  for (int s = 0; s < lattice.samples_per_cell(); ++s)
-    for (int a = 0; a < 3; ++a) offsets[s][a] = lattice.sample_offset(s)[a];
-  MENISCUS_CUDA_CHECK(cudaMemcpyToSymbol(c_offsets, offsets, sizeof(offsets)));
+/// The marching tables, on the device once per process: the same constants for every run, so
+/// concurrent reconstructions share them safely (the first one uploads, the others wait for it).
+void upload_tables() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    static const MarchingTables tables = host_marching_tables();
+    static constexpr TileVertexLookup lookup = make_tile_vertex_lookup(6, 36);
+    MENISCUS_CUDA_CHECK(cudaMemcpyToSymbol(d_tables_storage, &tables, sizeof(tables)));
+    MENISCUS_CUDA_CHECK(cudaMemcpyToSymbol(d_tile_lookup, &lookup, sizeof(lookup)));
+  });
 }
 
 }  // namespace
@@ -178,7 +182,7 @@ DeviceMesh extract_surface(const DeviceField& field, float iso, Extractor extrac
   if (a15 != (extractor == Extractor::tiles))
     throw InvalidParameter("extract_surface (cuda): the field's lattice does not fit the extractor");
   if (!(field.background > iso)) throw InvalidParameter("extract_surface (cuda): the background must be > the iso value");
-  upload_tables(field.lattice);
+  upload_tables();
   DeviceMesh mesh;
   const uint32_t blocks = field.blocks;
   if (blocks == 0) return mesh;
@@ -186,21 +190,21 @@ DeviceMesh extract_surface(const DeviceField& field, float iso, Extractor extrac
   {
     DeviceBuffer<int> bad(1);
     bad.zero();
-    key_range_kernel<<<blocks_for(blocks), 256>>>(field.keys.data(), blocks, n, bad.data());
+    MENISCUS_LAUNCH(key_range_kernel, blocks_for(blocks), 256)(field.keys.data(), blocks, n, bad.data());
     MENISCUS_CUDA_CHECK_LAUNCH();
     if (bad.get(0) != 0)
       throw ResourceError("extract_surface (cuda): a field block lies outside the range of the 64-bit edge keys; use a "
                           "larger voxel size or move the particles closer to the origin");
   }
   DeviceBuffer<uint8_t> masks(std::size_t(blocks) * cells);
-  masks_kernel<<<blocks_for(std::size_t(blocks) * cells), 256>>>(field.values.data(), uint64_t(blocks) * kBlockSamples,
+  MENISCUS_LAUNCH(masks_kernel, blocks_for(std::size_t(blocks) * cells), 256)(field.values.data(), uint64_t(blocks) * kBlockSamples,
                                                                   spc, iso, masks.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
 
   // Blocks to march: the allocated ones plus the ghosts, sorted, unique.
   const bool full = extractor == Extractor::tiles;
   DeviceBuffer<uint32_t> ghost_counts(blocks), ghost_offsets32(std::size_t(blocks) + 1);
-  ghost_kernel<<<blocks_for(blocks), 256>>>(field.keys.data(), blocks, masks.data(), cells, full, nullptr, nullptr,
+  MENISCUS_LAUNCH(ghost_kernel, blocks_for(blocks), 256)(field.keys.data(), blocks, masks.data(), cells, full, nullptr, nullptr,
                                             ghost_counts.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   exclusive_sum(ghost_counts.data(), ghost_offsets32.data(), blocks);
@@ -213,8 +217,8 @@ DeviceMesh extract_surface(const DeviceField& field, float iso, Extractor extrac
     ghost_offsets.upload(h64.data(), blocks);
   }
   DeviceBuffer<uint64_t> march_keys(std::size_t(blocks) + ghosts);
-  MENISCUS_CUDA_CHECK(cudaMemcpy(march_keys.data(), field.keys.data(), blocks * sizeof(uint64_t), cudaMemcpyDeviceToDevice));
-  ghost_kernel<<<blocks_for(blocks), 256>>>(field.keys.data(), blocks, masks.data(), cells, full, ghost_offsets.data(),
+  MENISCUS_CUDA_CHECK(counted_memcpy(march_keys.data(), field.keys.data(), blocks * sizeof(uint64_t), cudaMemcpyDeviceToDevice));
+  MENISCUS_LAUNCH(ghost_kernel, blocks_for(blocks), 256)(field.keys.data(), blocks, masks.data(), cells, full, ghost_offsets.data(),
                                             march_keys.data() + blocks, nullptr);
   MENISCUS_CUDA_CHECK_LAUNCH();
   sort_keys(march_keys, std::size_t(blocks) + ghosts);
@@ -226,10 +230,10 @@ DeviceMesh extract_surface(const DeviceField& field, float iso, Extractor extrac
   const unsigned threads = unsigned(cells < 128 ? cells : 128);
   auto march = [&](uint64_t* c, const uint64_t* o, uint64_t* out) {
     if (a15)
-      march_kernel<true><<<unsigned(march_blocks), threads>>>(march_keys.data(), field.keys.data(), blocks, masks.data(),
+      MENISCUS_LAUNCH(march_kernel<true>, unsigned(march_blocks), threads)(march_keys.data(), field.keys.data(), blocks, masks.data(),
                                                               n, extractor, c, o, out);
     else
-      march_kernel<false><<<unsigned(march_blocks), threads>>>(march_keys.data(), field.keys.data(), blocks,
+      MENISCUS_LAUNCH(march_kernel<false>, unsigned(march_blocks), threads)(march_keys.data(), field.keys.data(), blocks,
                                                                masks.data(), n, extractor, c, o, out);
     MENISCUS_CUDA_CHECK_LAUNCH();
   };
@@ -247,29 +251,30 @@ DeviceMesh extract_surface(const DeviceField& field, float iso, Extractor extrac
 
   // Weld: stable sort of (edge key, corner index); run heads become vertices in key order.
   DeviceBuffer<uint32_t> corner_index(corners_n);
-  index_kernel<<<blocks_for(corners_n), 256>>>(corner_index.data(), corners_n);
+  MENISCUS_LAUNCH(index_kernel, blocks_for(corners_n), 256)(corner_index.data(), corners_n);
   MENISCUS_CUDA_CHECK_LAUNCH();
   sort_pairs(corners, corner_index, corners_n, 0, 63);
   DeviceBuffer<uint32_t> heads(corners_n), vertex_of(corners_n + 1);
-  weld_heads_kernel<<<blocks_for(corners_n), 256>>>(corners.data(), corners_n, heads.data());
+  MENISCUS_LAUNCH(weld_heads_kernel, blocks_for(corners_n), 256)(corners.data(), corners_n, heads.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   exclusive_sum(heads.data(), vertex_of.data(), corners_n);
   const uint32_t nv = corners_n == 0 ? 0 : vertex_of.get(corners_n);
   DeviceBuffer<uint64_t> vertex_keys(nv);
   mesh.triangles.resize(corners_n);
-  weld_scatter_kernel<<<blocks_for(corners_n), 256>>>(corners.data(), corner_index.data(), heads.data(),
+  MENISCUS_LAUNCH(weld_scatter_kernel, blocks_for(corners_n), 256)(corners.data(), corner_index.data(), heads.data(),
                                                       vertex_of.data(), corners_n, mesh.triangles.data(),
                                                       vertex_keys.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   mesh.vertices.resize(nv);
-  vertex_position_kernel<<<blocks_for(nv), 256>>>(vertex_keys.data(), nv, field.view(), a15, field.lattice.cell_size,
-                                                  iso, mesh.vertices.data());
+  MENISCUS_LAUNCH(vertex_position_kernel, blocks_for(nv), 256)(vertex_keys.data(), nv, field.view(), a15,
+                                                               field.lattice.cell_size, iso, SampleOffsets(field.lattice),
+                                                               mesh.vertices.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   mesh.vertex_count = nv;
   mesh.triangle_count = triangles;
   DeviceBuffer<unsigned long long> repeated(1);
   repeated.zero();
-  repeated_kernel<<<blocks_for(triangles), 256>>>(mesh.triangles.data(), triangles, repeated.data());
+  MENISCUS_LAUNCH(repeated_kernel, blocks_for(triangles), 256)(mesh.triangles.data(), triangles, repeated.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   // Unreachable for the marching stages (a triangle's corners lie on distinct edges); the CPU
   // weld drops such triangles, this backend hands the job back to the CPU instead.
@@ -283,7 +288,7 @@ DeviceMesh extract_surface(const DeviceField& field, float iso, Extractor extrac
 namespace {
 
 __device__ uint32_t find_root(uint32_t* parent, uint32_t x) {
-  while (parent[x] != x) x = parent[x];
+  for (uint32_t p = load_relaxed(parent + x); p != x; p = load_relaxed(parent + x)) x = p;  // others hook meanwhile
   return x;
 }
 
@@ -297,14 +302,14 @@ __global__ void hook_kernel(const uint32_t* tris, uint64_t nt, uint32_t* parent,
     for (int k = 0; k < 3; ++k)
       if (r[k] != m) {
         atomicMin(&parent[r[k]], m);
-        *changed = 1;
+        store_relaxed(changed, 1);
       }
   }
 }
 
 __global__ void compress_kernel(uint32_t* parent, uint64_t nv) {
   MENISCUS_GRID_STRIDE(v, nv)
-    parent[v] = find_root(parent, uint32_t(v));
+    store_relaxed(parent + v, find_root(parent, uint32_t(v)));
 }
 
 __global__ void init_parent_kernel(uint32_t* parent, uint64_t nv) {
@@ -313,7 +318,7 @@ __global__ void init_parent_kernel(uint32_t* parent, uint64_t nv) {
 }
 
 __global__ void volume_kernel(const uint32_t* tris, uint64_t nt, const Vec3f* x, const uint32_t* root, double* volume,
-                              uint8_t* has) {
+                              uint32_t* has) {
   MENISCUS_GRID_STRIDE(t, nt) {
     const Vec3f a = x[tris[3 * t]], b = x[tris[3 * t + 1]], c = x[tris[3 * t + 2]];
     const uint32_t r = root[tris[3 * t]];
@@ -321,11 +326,11 @@ __global__ void volume_kernel(const uint32_t* tris, uint64_t nt, const Vec3f* x,
                       double(a.y) * (double(b.x) * c.z - double(b.z) * c.x) +
                       double(a.z) * (double(b.x) * c.y - double(b.y) * c.x)) / 6.0;
     atomicAdd(&volume[r], v);
-    has[r] = 1;
+    store_relaxed(has + r, 1u);
   }
 }
 
-__global__ void drop_kernel(const uint32_t* root, const double* volume, const uint8_t* has, uint64_t nv,
+__global__ void drop_kernel(const uint32_t* root, const double* volume, const uint32_t* has, uint64_t nv,
                             double max_volume, uint8_t* drop, unsigned long long* removed) {
   MENISCUS_GRID_STRIDE(v, nv) {
     const bool d = root[v] == v && has[v] && volume[v] <= 0.0 && volume[v] > -max_volume;
@@ -340,7 +345,7 @@ __global__ void keep_flags_kernel(const uint32_t* tris, uint64_t nt, const uint3
     const bool k = !drop[root[tris[3 * t]]];
     keep[t] = k ? 1u : 0u;
     if (k)
-      for (int j = 0; j < 3; ++j) used[tris[3 * t + j]] = 1u;
+      for (int j = 0; j < 3; ++j) store_relaxed(used + tris[3 * t + j], 1u);
   }
 }
 
@@ -364,21 +369,21 @@ namespace {
 struct DeviceComponents {
   DeviceBuffer<uint32_t> root;
   DeviceBuffer<double> volume;
-  DeviceBuffer<uint8_t> has;
+  DeviceBuffer<uint32_t> has;
 };
 
 DeviceComponents mesh_components(const DeviceMesh& mesh) {
   const uint64_t nv = mesh.vertex_count, nt = mesh.triangle_count;
   DeviceComponents c;
   c.root.resize(nv);
-  init_parent_kernel<<<blocks_for(nv), 256>>>(c.root.data(), nv);
+  MENISCUS_LAUNCH(init_parent_kernel, blocks_for(nv), 256)(c.root.data(), nv);
   MENISCUS_CUDA_CHECK_LAUNCH();
   DeviceBuffer<int> changed(1);
   for (;;) {
     changed.zero();
-    hook_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, c.root.data(), changed.data());
+    MENISCUS_LAUNCH(hook_kernel, blocks_for(nt), 256)(mesh.triangles.data(), nt, c.root.data(), changed.data());
     MENISCUS_CUDA_CHECK_LAUNCH();
-    compress_kernel<<<blocks_for(nv), 256>>>(c.root.data(), nv);
+    MENISCUS_LAUNCH(compress_kernel, blocks_for(nv), 256)(c.root.data(), nv);
     MENISCUS_CUDA_CHECK_LAUNCH();
     if (changed.get(0) == 0) break;
   }
@@ -386,7 +391,7 @@ DeviceComponents mesh_components(const DeviceMesh& mesh) {
   c.has.resize(nv);
   c.volume.zero();
   c.has.zero();
-  volume_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, mesh.vertices.data(), c.root.data(),
+  MENISCUS_LAUNCH(volume_kernel, blocks_for(nt), 256)(mesh.triangles.data(), nt, mesh.vertices.data(), c.root.data(),
                                          c.volume.data(), c.has.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   return c;
@@ -398,7 +403,7 @@ void drop_components(DeviceMesh& mesh, const DeviceBuffer<uint32_t>& root, const
   const uint64_t nv = mesh.vertex_count, nt = mesh.triangle_count;
   DeviceBuffer<uint32_t> keep(nt), tri_pos(nt + 1), used(nv), vertex_pos(nv + 1);
   used.zero();
-  keep_flags_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, root.data(), drop.data(), keep.data(),
+  MENISCUS_LAUNCH(keep_flags_kernel, blocks_for(nt), 256)(mesh.triangles.data(), nt, root.data(), drop.data(), keep.data(),
                                              used.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   exclusive_sum(keep.data(), tri_pos.data(), nt);
@@ -406,7 +411,7 @@ void drop_components(DeviceMesh& mesh, const DeviceBuffer<uint32_t>& root, const
   const uint32_t new_nt = tri_pos.get(nt), new_nv = vertex_pos.get(nv);
   DeviceBuffer<uint32_t> new_tris(3 * std::size_t(new_nt));
   DeviceBuffer<Vec3f> new_x(new_nv);
-  compact_kernel<<<blocks_for(nt > nv ? nt : nv), 256>>>(mesh.triangles.data(), nt, keep.data(), tri_pos.data(),
+  MENISCUS_LAUNCH(compact_kernel, blocks_for(nt > nv ? nt : nv), 256)(mesh.triangles.data(), nt, keep.data(), tri_pos.data(),
                                                          used.data(), vertex_pos.data(), mesh.vertices.data(), nv,
                                                          new_tris.data(), new_x.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
@@ -419,7 +424,7 @@ void drop_components(DeviceMesh& mesh, const DeviceBuffer<uint32_t>& root, const
 // --- unsupported blobs (kernel fields) ---------------------------------------------------------------
 
 /// Flags the small outward components' roots (volume in (0, max_volume]).
-__global__ void blob_candidate_kernel(const uint32_t* root, const double* volume, const uint8_t* has, uint64_t nv,
+__global__ void blob_candidate_kernel(const uint32_t* root, const double* volume, const uint32_t* has, uint64_t nv,
                                       double max_volume, uint32_t* flag) {
   MENISCUS_GRID_STRIDE(v, nv)
     flag[v] = root[v] == v && has[v] && volume[v] > 0.0 && volume[v] <= max_volume ? 1u : 0u;
@@ -471,7 +476,7 @@ std::size_t remove_small_voids(DeviceMesh& mesh, double max_volume) {
   DeviceBuffer<uint8_t> drop(nv);
   DeviceBuffer<unsigned long long> removed(1);
   removed.zero();
-  drop_kernel<<<blocks_for(nv), 256>>>(c.root.data(), c.volume.data(), c.has.data(), nv, max_volume, drop.data(),
+  MENISCUS_LAUNCH(drop_kernel, blocks_for(nv), 256)(c.root.data(), c.volume.data(), c.has.data(), nv, max_volume, drop.data(),
                                        removed.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   const std::size_t count = std::size_t(removed.get(0));
@@ -484,30 +489,30 @@ std::size_t remove_unsupported_blobs(DeviceMesh& mesh, const DeviceGrid& grid, d
   if (nv == 0 || nt == 0) return 0;
   const DeviceComponents c = mesh_components(mesh);
   DeviceBuffer<uint32_t> flag(nv), slot(nv + 1);
-  blob_candidate_kernel<<<blocks_for(nv), 256>>>(c.root.data(), c.volume.data(), c.has.data(), nv, max_volume,
+  MENISCUS_LAUNCH(blob_candidate_kernel, blocks_for(nv), 256)(c.root.data(), c.volume.data(), c.has.data(), nv, max_volume,
                                                  flag.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   exclusive_sum(flag.data(), slot.data(), nv);
   const uint32_t candidates = slot.get(nv);
   if (candidates == 0) return 0;
   DeviceBuffer<uint32_t> list(candidates), counts(candidates), start(std::size_t(candidates) + 1), cursor(candidates);
-  candidate_list_kernel<<<blocks_for(nv), 256>>>(flag.data(), slot.data(), nv, list.data());
+  MENISCUS_LAUNCH(candidate_list_kernel, blocks_for(nv), 256)(flag.data(), slot.data(), nv, list.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   counts.zero();
-  blob_count_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, c.root.data(), flag.data(), slot.data(),
+  MENISCUS_LAUNCH(blob_count_kernel, blocks_for(nt), 256)(mesh.triangles.data(), nt, c.root.data(), flag.data(), slot.data(),
                                              counts.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   exclusive_sum(counts.data(), start.data(), candidates);
   DeviceBuffer<uint32_t> ids(start.get(candidates));
   cursor.zero();
-  blob_fill_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), nt, c.root.data(), flag.data(), slot.data(),
+  MENISCUS_LAUNCH(blob_fill_kernel, blocks_for(nt), 256)(mesh.triangles.data(), nt, c.root.data(), flag.data(), slot.data(),
                                             start.data(), cursor.data(), ids.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   DeviceBuffer<uint8_t> drop(nv);
   drop.zero();
   DeviceBuffer<unsigned long long> removed(1);
   removed.zero();
-  blob_test_kernel<<<blocks_for(candidates, 64), 64>>>(grid.view(), mesh.triangles.data(), mesh.vertices.data(),
+  MENISCUS_LAUNCH(blob_test_kernel, blocks_for(candidates, 64), 64)(grid.view(), mesh.triangles.data(), mesh.vertices.data(),
                                                        list.data(), candidates, start.data(), ids.data(),
                                                        c.volume.data(), min_volume, drop.data(), removed.data());
   MENISCUS_CUDA_CHECK_LAUNCH();

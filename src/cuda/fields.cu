@@ -82,7 +82,7 @@ template <class T>
 DeviceBuffer<T> gather(const DeviceGrid& grid, const DeviceBuffer<T>& values) {
   DeviceBuffer<T> out(grid.count);
   if (grid.count > 0) {
-    gather_kernel<<<blocks_for(grid.count), 256>>>(values.data(), grid.order.data(), grid.count, out.data());
+    MENISCUS_LAUNCH(gather_kernel<T>, blocks_for(grid.count), 256)(values.data(), grid.order.data(), grid.count, out.data());
     MENISCUS_CUDA_CHECK_LAUNCH();
   }
   return out;
@@ -93,8 +93,8 @@ DeviceBuffer<T> gather(const DeviceGrid& grid, const DeviceBuffer<T>& values) {
 void point_bounds(const DeviceBuffer<Vec3f>& points, uint32_t count, Vec3f* lo, Vec3f* hi) {
   DeviceBuffer<int> out(6);
   const int init[6] = {INT_MAX, INT_MAX, INT_MAX, INT_MIN, INT_MIN, INT_MIN};
-  MENISCUS_CUDA_CHECK(cudaMemcpy(out.data(), init, sizeof init, cudaMemcpyHostToDevice));
-  bounds_kernel<<<blocks_for(count), 256>>>(points.data(), count, out.data());
+  MENISCUS_CUDA_CHECK(counted_memcpy(out.data(), init, sizeof init, cudaMemcpyHostToDevice));
+  MENISCUS_LAUNCH(bounds_kernel, blocks_for(count), 256)(points.data(), count, out.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   int b[6];
   out.download(b, 6);
@@ -105,7 +105,7 @@ void point_bounds(const DeviceBuffer<Vec3f>& points, uint32_t count, Vec3f* lo, 
 float max_ellipsoid_axis(const DeviceBuffer<Ellipsoid>& ellipsoids, uint32_t count) {
   DeviceBuffer<int> out(1);
   out.zero();
-  max_axis_kernel<<<blocks_for(count), 256>>>(ellipsoids.data(), count, out.data());
+  MENISCUS_LAUNCH(max_axis_kernel, blocks_for(count), 256)(ellipsoids.data(), count, out.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   return from_ordered_bits(out.get(0));
 }
@@ -115,7 +115,7 @@ void particle_frames(const DeviceGrid& raw, float pca_radius, const AnisotropyCo
   if (centres != nullptr) centres->resize(raw.count);
   if (ellipsoids != nullptr) ellipsoids->resize(raw.count);
   if (raw.count == 0) return;
-  frames_kernel<<<blocks_for(raw.count, 128), 128>>>(raw.view(), raw.order.data(), raw.count, pca_radius, k,
+  MENISCUS_LAUNCH(frames_kernel, blocks_for(raw.count, 128), 128)(raw.view(), raw.order.data(), raw.count, pca_radius, k,
                                                      smooth_radius, lambda,
                                                      centres != nullptr ? centres->data() : nullptr,
                                                      ellipsoids != nullptr ? ellipsoids->data() : nullptr);
@@ -132,7 +132,7 @@ DeviceBuffer<Ellipsoid> to_sorted_order(const DeviceGrid& grid, const DeviceBuff
 DeviceBuffer<Ellipsoid> unit_volume_shells(const DeviceBuffer<Ellipsoid>& ellipsoids) {
   DeviceBuffer<Ellipsoid> out(ellipsoids.size());
   if (!ellipsoids.size()) return out;
-  shells_kernel<<<blocks_for(ellipsoids.size()), 256>>>(ellipsoids.data(), ellipsoids.size(), out.data());
+  MENISCUS_LAUNCH(shells_kernel, blocks_for(ellipsoids.size()), 256)(ellipsoids.data(), ellipsoids.size(), out.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   return out;
 }
@@ -141,7 +141,7 @@ DeviceBuffer<float> velocity_weights(const DeviceBuffer<float>& velocity, std::s
                                      float min_weight) {
   DeviceBuffer<float> w(vertices);
   if (vertices == 0) return w;
-  velocity_weight_kernel<<<blocks_for(vertices), 256>>>(velocity.data(), vertices, reference, min_weight, w.data());
+  MENISCUS_LAUNCH(velocity_weight_kernel, blocks_for(vertices), 256)(velocity.data(), vertices, reference, min_weight, w.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   return w;
 }

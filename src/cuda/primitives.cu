@@ -22,14 +22,14 @@ void sort_pairs_impl(DeviceBuffer<K>& keys, DeviceBuffer<uint32_t>& values, std:
   DeviceBuffer<unsigned char> temp(temp_bytes);
   MENISCUS_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(temp.data(), temp_bytes, keys.data(), keys_out.data(),
                                                       values.data(), values_out.data(), n, begin_bit, end_bit));
-  MENISCUS_CUDA_CHECK(cudaMemcpy(keys.data(), keys_out.data(), n * sizeof(K), cudaMemcpyDeviceToDevice));
-  MENISCUS_CUDA_CHECK(cudaMemcpy(values.data(), values_out.data(), n * sizeof(uint32_t), cudaMemcpyDeviceToDevice));
+  MENISCUS_CUDA_CHECK(counted_memcpy(keys.data(), keys_out.data(), n * sizeof(K), cudaMemcpyDeviceToDevice));
+  MENISCUS_CUDA_CHECK(counted_memcpy(values.data(), values_out.data(), n * sizeof(uint32_t), cudaMemcpyDeviceToDevice));
 }
 
 template <class T>
 void exclusive_sum_impl(const T* in, T* out, std::size_t n) {
   if (n == 0) {
-    MENISCUS_CUDA_CHECK(cudaMemset(out, 0, sizeof(T)));
+    MENISCUS_CUDA_CHECK(counted_memset(out, 0, sizeof(T)));
     return;
   }
   std::size_t temp_bytes = 0;
@@ -38,10 +38,10 @@ void exclusive_sum_impl(const T* in, T* out, std::size_t n) {
   MENISCUS_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(temp.data(), temp_bytes, in, out, n));
   // out[n] = out[n-1] + in[n-1]
   T last_out = 0, last_in = 0;
-  MENISCUS_CUDA_CHECK(cudaMemcpy(&last_out, out + n - 1, sizeof(T), cudaMemcpyDeviceToHost));
-  MENISCUS_CUDA_CHECK(cudaMemcpy(&last_in, in + n - 1, sizeof(T), cudaMemcpyDeviceToHost));
+  MENISCUS_CUDA_CHECK(counted_memcpy(&last_out, out + n - 1, sizeof(T), cudaMemcpyDeviceToHost));
+  MENISCUS_CUDA_CHECK(counted_memcpy(&last_in, in + n - 1, sizeof(T), cudaMemcpyDeviceToHost));
   const T total = last_out + last_in;
-  MENISCUS_CUDA_CHECK(cudaMemcpy(out + n, &total, sizeof(T), cudaMemcpyHostToDevice));
+  MENISCUS_CUDA_CHECK(counted_memcpy(out + n, &total, sizeof(T), cudaMemcpyHostToDevice));
 }
 
 }  // namespace
@@ -62,7 +62,7 @@ void sort_keys(DeviceBuffer<uint64_t>& keys, std::size_t n) {
   MENISCUS_CUDA_CHECK(cub::DeviceRadixSort::SortKeys(nullptr, temp_bytes, keys.data(), out.data(), n));
   DeviceBuffer<unsigned char> temp(temp_bytes);
   MENISCUS_CUDA_CHECK(cub::DeviceRadixSort::SortKeys(temp.data(), temp_bytes, keys.data(), out.data(), n));
-  MENISCUS_CUDA_CHECK(cudaMemcpy(keys.data(), out.data(), n * sizeof(uint64_t), cudaMemcpyDeviceToDevice));
+  MENISCUS_CUDA_CHECK(counted_memcpy(keys.data(), out.data(), n * sizeof(uint64_t), cudaMemcpyDeviceToDevice));
 }
 
 void exclusive_sum(const uint64_t* in, uint64_t* out, std::size_t n) { exclusive_sum_impl(in, out, n); }
@@ -77,7 +77,7 @@ std::size_t unique_sorted(DeviceBuffer<uint64_t>& keys, std::size_t n) {
   DeviceBuffer<unsigned char> temp(temp_bytes);
   MENISCUS_CUDA_CHECK(cub::DeviceSelect::Unique(temp.data(), temp_bytes, keys.data(), out.data(), count.data(), n));
   const std::size_t m = count.get(0);
-  MENISCUS_CUDA_CHECK(cudaMemcpy(keys.data(), out.data(), m * sizeof(uint64_t), cudaMemcpyDeviceToDevice));
+  MENISCUS_CUDA_CHECK(counted_memcpy(keys.data(), out.data(), m * sizeof(uint64_t), cudaMemcpyDeviceToDevice));
   return m;
 }
 

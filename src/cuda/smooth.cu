@@ -135,13 +135,13 @@ DeviceColoring color_vertices(const DeviceAdjacency& adj, uint64_t nv, int dista
   DeviceBuffer<int> overflow(1);
   overflow.zero();
   size.zero();
-  predecessor_kernel<<<blocks_for(nv), 256>>>(adj.offsets.data(), adj.neighbors.data(), nv, distance, pending.data(),
+  MENISCUS_LAUNCH(predecessor_kernel, blocks_for(nv), 256)(adj.offsets.data(), adj.neighbors.data(), nv, distance, pending.data(),
                                               frontier.data(), size.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   uint32_t count = size.get(0);
   while (count > 0) {
-    MENISCUS_CUDA_CHECK(cudaMemset(size.data() + 1, 0, sizeof(uint32_t)));
-    colour_round_kernel<<<blocks_for(count), 256>>>(adj.offsets.data(), adj.neighbors.data(), distance,
+    MENISCUS_CUDA_CHECK(counted_memset(size.data() + 1, 0, sizeof(uint32_t)));
+    MENISCUS_LAUNCH(colour_round_kernel, blocks_for(count), 256)(adj.offsets.data(), adj.neighbors.data(), distance,
                                                     frontier.data(), count, color.data(), pending.data(), next.data(),
                                                     size.data() + 1, overflow.data());
     MENISCUS_CUDA_CHECK_LAUNCH();
@@ -153,7 +153,7 @@ DeviceColoring color_vertices(const DeviceAdjacency& adj, uint64_t nv, int dista
   // Classes in colour order, vertices ascending within a class (stable sort of ascending ids).
   DeviceBuffer<uint32_t> keys(nv);
   out.vertices.resize(nv);
-  colour_keys_kernel<<<blocks_for(nv), 256>>>(color.data(), nv, keys.data(), out.vertices.data());
+  MENISCUS_LAUNCH(colour_keys_kernel, blocks_for(nv), 256)(color.data(), nv, keys.data(), out.vertices.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   sort_pairs(keys, out.vertices, nv, 0, 16);
   std::vector<uint32_t> sorted_colors(nv);  // class boundaries: one word per vertex, once per phase
@@ -227,7 +227,7 @@ struct TreeSum {
     total.resize(1);
   }
   double finish() {
-    combine_kernel<<<1, 1>>>(sums.data(), n, total.data());
+    MENISCUS_LAUNCH(combine_kernel, 1, 1)(sums.data(), n, total.data());
     MENISCUS_CUDA_CHECK_LAUNCH();
     return total.get(0);
   }
@@ -308,19 +308,19 @@ DeviceAdjacency build_adjacency(const DeviceMesh& mesh) {
   counts.zero();
   adj.tri_ids.resize(corners);
   adj.tri_offsets.resize(nv + 1);
-  corner_keys_kernel<<<blocks_for(corners), 256>>>(mesh.triangles.data(), corners, keys.data(), adj.tri_ids.data(),
+  MENISCUS_LAUNCH(corner_keys_kernel, blocks_for(corners), 256)(mesh.triangles.data(), corners, keys.data(), adj.tri_ids.data(),
                                                    counts.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   exclusive_sum(counts.data(), adj.tri_offsets.data(), nv);
   sort_pairs(keys, adj.tri_ids, corners, 0, 32);  // stable: each vertex's triangles ascending
   DeviceBuffer<uint32_t> scratch(2 * corners);
-  neighbour_count_kernel<<<blocks_for(nv), 256>>>(mesh.triangles.data(), adj.tri_offsets.data(), adj.tri_ids.data(), nv,
+  MENISCUS_LAUNCH(neighbour_count_kernel, blocks_for(nv), 256)(mesh.triangles.data(), adj.tri_offsets.data(), adj.tri_ids.data(), nv,
                                                   scratch.data(), counts.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   adj.offsets.resize(nv + 1);
   exclusive_sum(counts.data(), adj.offsets.data(), nv);
   adj.neighbors.resize(nv == 0 ? 0 : adj.offsets.get(nv));
-  neighbour_write_kernel<<<blocks_for(nv), 256>>>(adj.tri_offsets.data(), scratch.data(), adj.offsets.data(), nv,
+  MENISCUS_LAUNCH(neighbour_write_kernel, blocks_for(nv), 256)(adj.tri_offsets.data(), scratch.data(), adj.offsets.data(), nv,
                                                   adj.neighbors.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   return adj;
@@ -351,18 +351,18 @@ SmoothReport smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const 
       for (int s = 0; s < o.steps_a; ++s)
         for (std::size_t c = 0; c + 1 < colors.offsets.size(); ++c) {
           const uint32_t b = colors.offsets[c], e = colors.offsets[c + 1];
-          a_sweep_kernel<<<blocks_for(e - b), 256>>>(off, nb, colors.vertices.data() + b, e - b, x, x, o.relax_a, g,
+          MENISCUS_LAUNCH(a_sweep_kernel, blocks_for(e - b), 256)(off, nb, colors.vertices.data() + b, e - b, x, x, o.relax_a, g,
                                                      true);
           MENISCUS_CUDA_CHECK_LAUNCH();
         }
     } else {
       for (int s = 0; s < o.steps_a; ++s) {
-        a_sweep_kernel<<<blocks_for(nv), 256>>>(off, nb, nullptr, nv, mesh.vertices.data(), next.data(), o.relax_a, g,
+        MENISCUS_LAUNCH(a_sweep_kernel, blocks_for(nv), 256)(off, nb, nullptr, nv, mesh.vertices.data(), next.data(), o.relax_a, g,
                                                 false);
         MENISCUS_CUDA_CHECK_LAUNCH();
         std::swap(mesh.vertices, next);
         x = mesh.vertices.data();
-        project_kernel<<<blocks_for(nv), 256>>>(x, nv, g);
+        MENISCUS_LAUNCH(project_kernel, blocks_for(nv), 256)(x, nv, g);
         MENISCUS_CUDA_CHECK_LAUNCH();
       }
     }
@@ -379,28 +379,28 @@ SmoothReport smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const 
     op.diag.resize(nv);
     op.area.resize(nv);
     op.b_diag.resize(nv);
-    cotan_kernel<<<blocks_for(nv), 256>>>(rows, mesh.vertices.data(), nv, op.w.data(), op.diag.data(), op.area.data());
+    MENISCUS_LAUNCH(cotan_kernel, blocks_for(nv), 256)(rows, mesh.vertices.data(), nv, op.w.data(), op.diag.data(), op.area.data());
     MENISCUS_CUDA_CHECK_LAUNCH();
-    leaf_area_kernel<<<blocks_for(tree.count), 256>>>(op.area.data(), tree.leaves.data(), tree.count, tree.sums.data());
+    MENISCUS_LAUNCH(leaf_area_kernel, blocks_for(tree.count), 256)(op.area.data(), tree.leaves.data(), tree.count, tree.sums.data());
     MENISCUS_CUDA_CHECK_LAUNCH();
     tree.finish();  // tree.total = Σ area, in the CPU's tree
     for (int phase = 0; phase < 2; ++phase) {
-      floor_and_bdiag_kernel<<<blocks_for(nv), 256>>>(off, nb, op.w.data(), op.diag.data(), op.area.data(), nv,
+      MENISCUS_LAUNCH(floor_and_bdiag_kernel, blocks_for(nv), 256)(off, nb, op.w.data(), op.diag.data(), op.area.data(), nv,
                                                       tree.total.data(), op.b_diag.data(), phase);
       MENISCUS_CUDA_CHECK_LAUNCH();
     }
   };
   auto energy_of = [&] {  // scratch = W x; returns xᵀBx
-    apply_w_kernel<<<blocks_for(nv), 256>>>(off, nb, op.w.data(), op.diag.data(), mesh.vertices.data(), nv,
+    MENISCUS_LAUNCH(apply_w_kernel, blocks_for(nv), 256)(off, nb, op.w.data(), op.diag.data(), mesh.vertices.data(), nv,
                                             scratch.data());
     MENISCUS_CUDA_CHECK_LAUNCH();
-    leaf_energy_kernel<<<blocks_for(tree.count), 256>>>(scratch.data(), op.area.data(), tree.leaves.data(), tree.count,
+    MENISCUS_LAUNCH(leaf_energy_kernel, blocks_for(tree.count), 256)(scratch.data(), op.area.data(), tree.leaves.data(), tree.count,
                                                         tree.sums.data());
     MENISCUS_CUDA_CHECK_LAUNCH();
     return tree.finish();
   };
   auto energy_from_wx = [&] {  // scratch already holds W x (kept current by the Gauss–Seidel sweep)
-    leaf_energy_kernel<<<blocks_for(tree.count), 256>>>(scratch.data(), op.area.data(), tree.leaves.data(), tree.count,
+    MENISCUS_LAUNCH(leaf_energy_kernel, blocks_for(tree.count), 256)(scratch.data(), op.area.data(), tree.leaves.data(), tree.count,
                                                         tree.sums.data());
     MENISCUS_CUDA_CHECK_LAUNCH();
     return tree.finish();
@@ -422,18 +422,18 @@ SmoothReport smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const 
     if (gauss_seidel) {
       for (std::size_t c = 0; c + 1 < colors.offsets.size(); ++c) {
         const uint32_t b = colors.offsets[c], e = colors.offsets[c + 1];
-        b_gauss_seidel_kernel<<<blocks_for(e - b), 256>>>(off, nb, colors.vertices.data() + b, e - b, op.w.data(),
+        MENISCUS_LAUNCH(b_gauss_seidel_kernel, blocks_for(e - b), 256)(off, nb, colors.vertices.data() + b, e - b, op.w.data(),
                                                           op.diag.data(), op.area.data(), op.b_diag.data(), x,
                                                           scratch.data(), w, constrained, g);
         MENISCUS_CUDA_CHECK_LAUNCH();
       }
     } else {
       DeviceBuffer<Vec3f> z(nv);
-      divide_area_kernel<<<blocks_for(nv), 256>>>(scratch.data(), op.area.data(), nv, z.data());
+      MENISCUS_LAUNCH(divide_area_kernel, blocks_for(nv), 256)(scratch.data(), op.area.data(), nv, z.data());
       MENISCUS_CUDA_CHECK_LAUNCH();
-      apply_w_kernel<<<blocks_for(nv), 256>>>(off, nb, op.w.data(), op.diag.data(), z.data(), nv, next.data());
+      MENISCUS_LAUNCH(apply_w_kernel, blocks_for(nv), 256)(off, nb, op.w.data(), op.diag.data(), z.data(), nv, next.data());
       MENISCUS_CUDA_CHECK_LAUNCH();
-      b_jacobi_kernel<<<blocks_for(nv), 256>>>(next.data(), op.b_diag.data(), nv, x, w, constrained, g);
+      MENISCUS_LAUNCH(b_jacobi_kernel, blocks_for(nv), 256)(next.data(), op.b_diag.data(), nv, x, w, constrained, g);
       MENISCUS_CUDA_CHECK_LAUNCH();
     }
     const double e = gauss_seidel ? energy_from_wx() : energy_of();

@@ -28,6 +28,17 @@ MENISCUS_HD inline uint32_t find_sorted(const uint64_t* keys, uint32_t n, uint64
   return lo < n && keys[lo] == key ? lo : kNotFound;
 }
 
+/// The lattice's sample offsets (in cells), passed to the kernels by value: no per-process device
+/// state, so concurrent reconstructions on different lattices stay apart.
+struct SampleOffsets {
+  float o[8][3] = {};
+  SampleOffsets() = default;
+  explicit SampleOffsets(const SampleLattice& lattice) {
+    for (int s = 0; s < lattice.samples_per_cell(); ++s)
+      for (int a = 0; a < 3; ++a) o[s][a] = lattice.sample_offset(s)[a];
+  }
+};
+
 struct CellRange {
   uint32_t first = 0, second = 0;
 };

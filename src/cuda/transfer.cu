@@ -66,7 +66,7 @@ __global__ void transfer_kernel(const float* values, int nc, const uint32_t* ord
 DeviceBuffer<Vec3f> vertex_normals(const DeviceMesh& mesh, const DeviceAdjacency& adj) {
   DeviceBuffer<Vec3f> n(mesh.vertex_count);
   if (mesh.vertex_count == 0) return n;
-  normals_kernel<<<blocks_for(mesh.vertex_count), 256>>>(mesh.vertices.data(), mesh.triangles.data(),
+  MENISCUS_LAUNCH(normals_kernel, blocks_for(mesh.vertex_count), 256)(mesh.vertices.data(), mesh.triangles.data(),
                                                          adj.tri_offsets.data(), adj.tri_ids.data(), mesh.vertex_count,
                                                          n.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
@@ -78,13 +78,13 @@ std::size_t erode(DeviceMesh& mesh, const DeviceAdjacency& adj, float distance) 
   if (nv == 0) return 0;
   const DeviceBuffer<Vec3f> n = vertex_normals(mesh, adj);
   DeviceBuffer<Vec3f> before(nt);
-  face_normals_kernel<<<blocks_for(nt), 256>>>(mesh.vertices.data(), mesh.triangles.data(), nt, before.data());
+  MENISCUS_LAUNCH(face_normals_kernel, blocks_for(nt), 256)(mesh.vertices.data(), mesh.triangles.data(), nt, before.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
-  move_kernel<<<blocks_for(nv), 256>>>(mesh.vertices.data(), n.data(), nv, distance);
+  MENISCUS_LAUNCH(move_kernel, blocks_for(nv), 256)(mesh.vertices.data(), n.data(), nv, distance);
   MENISCUS_CUDA_CHECK_LAUNCH();
   DeviceBuffer<unsigned long long> flipped(1);
   flipped.zero();
-  flipped_kernel<<<blocks_for(nt), 256>>>(mesh.vertices.data(), mesh.triangles.data(), before.data(), nt,
+  MENISCUS_LAUNCH(flipped_kernel, blocks_for(nt), 256)(mesh.vertices.data(), mesh.triangles.data(), before.data(), nt,
                                           flipped.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   return std::size_t(flipped.get(0));
@@ -94,7 +94,7 @@ DeviceBuffer<float> transfer_attribute(const DeviceBuffer<float>& values, int co
                                        const DeviceMesh& mesh, float radius) {
   DeviceBuffer<float> out(mesh.vertex_count * std::size_t(components));
   if (mesh.vertex_count == 0 || components == 0) return out;
-  transfer_kernel<<<blocks_for(mesh.vertex_count), 128>>>(values.data(), components, grid.order.data(), grid.view(),
+  MENISCUS_LAUNCH(transfer_kernel, blocks_for(mesh.vertex_count), 128)(values.data(), components, grid.order.data(), grid.view(),
                                                           mesh.vertices.data(), mesh.vertex_count, radius, out.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   return out;

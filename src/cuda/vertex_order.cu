@@ -59,22 +59,22 @@ void reorder_vertices_spatially(DeviceMesh& mesh) {
   const float scale = morton_scale(lo, hi);
 
   DeviceBuffer<uint32_t> keys(std::max(nv, nt)), ids(std::max(nv, nt)), new_of_old(nv);
-  morton_kernel<<<blocks_for(nv), 256>>>(mesh.vertices.data(), nv, lo, scale, keys.data(), ids.data());
+  MENISCUS_LAUNCH(morton_kernel, blocks_for(nv), 256)(mesh.vertices.data(), nv, lo, scale, keys.data(), ids.data());
   MENISCUS_CUDA_CHECK(cudaGetLastError());
   sort_pairs(keys, ids, nv, 0, 30);  // stable: ties keep the old order, as on the CPU
   DeviceBuffer<Vec3f> sorted(nv);
-  permute_vertices_kernel<<<blocks_for(nv), 256>>>(mesh.vertices.data(), ids.data(), nv, sorted.data(),
+  MENISCUS_LAUNCH(permute_vertices_kernel, blocks_for(nv), 256)(mesh.vertices.data(), ids.data(), nv, sorted.data(),
                                                    new_of_old.data());
   MENISCUS_CUDA_CHECK(cudaGetLastError());
   mesh.vertices = std::move(sorted);
   if (nt == 0) return;
 
-  remap_triangles_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), new_of_old.data(), nt, keys.data(),
+  MENISCUS_LAUNCH(remap_triangles_kernel, blocks_for(nt), 256)(mesh.triangles.data(), new_of_old.data(), nt, keys.data(),
                                                   ids.data());
   MENISCUS_CUDA_CHECK(cudaGetLastError());
   sort_pairs(keys, ids, nt, 0, 32);
   DeviceBuffer<uint32_t> tris(3 * nt);
-  gather_triangles_kernel<<<blocks_for(nt), 256>>>(mesh.triangles.data(), ids.data(), nt, tris.data());
+  MENISCUS_LAUNCH(gather_triangles_kernel, blocks_for(nt), 256)(mesh.triangles.data(), ids.data(), nt, tris.data());
   MENISCUS_CUDA_CHECK(cudaGetLastError());
   mesh.triangles = std::move(tris);
 }

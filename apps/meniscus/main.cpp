@@ -695,9 +695,15 @@ int run_info() {
   std::string why_no_cuda;
   const std::vector<CudaDeviceInfo> devices = cuda_devices(&why_no_cuda);
   if (devices.empty()) fmt::print("cuda: none ({})\n", why_no_cuda);
-  for (const CudaDeviceInfo& d : devices)
-    fmt::print("cuda: device {}: {} (compute capability {}.{}, {:.1f} GB, {:.1f} GB free)\n", d.index, d.name, d.major,
-               d.minor, double(d.total_memory) / 1e9, double(d.free_memory) / 1e9);
+  for (const CudaDeviceInfo& d : devices) {
+    if (d.emulated)
+      fmt::print("cuda: device {}: EMULATED on the CPU — a test build (MENISCUS_CUDA_EMULATION): --backend cuda runs "
+                 "the CUDA backend's kernels on the CPU, --backend auto does not use it\n",
+                 d.index);
+    else
+      fmt::print("cuda: device {}: {} (compute capability {}.{}, {:.1f} GB, {:.1f} GB free)\n", d.index, d.name, d.major,
+                 d.minor, double(d.total_memory) / 1e9, double(d.free_memory) / 1e9);
+  }
   fmt::print("openvdb: {}\n", has_openvdb() ? "yes (--save-field writes .vdb level sets)" : "no");
   fmt::print("particle formats: {}\n", fmt::join(particle_formats(), " "));
   fmt::print("mesh formats: {}\n", fmt::join(mesh_formats(), " "));

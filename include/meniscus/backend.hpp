@@ -13,6 +13,9 @@ struct CudaDeviceInfo {
   int major = 0, minor = 0;        ///< compute capability
   std::size_t total_memory = 0;    ///< bytes
   std::size_t free_memory = 0;     ///< bytes free when queried
+  /// The emulated device of a MENISCUS_CUDA_EMULATION build (the CUDA backend's kernels run on
+  /// the CPU, for tests): --backend cuda uses it, --backend auto never does.
+  bool emulated = false;
 };
 
 /// True when this build contains the CUDA backend (CMake MENISCUS_CUDA found nvcc).

@@ -28,6 +28,9 @@ std::vector<CudaDeviceInfo> cuda_devices(std::string* reason) {
     d.major = prop.major;
     d.minor = prop.minor;
     d.total_memory = prop.totalGlobalMem;
+#if defined(MENISCUS_CUDA_EMULATION)
+    d.emulated = true;
+#endif
     std::size_t free_bytes = 0, total_bytes = 0;
     if (cudaSetDevice(i) == cudaSuccess && cudaMemGetInfo(&free_bytes, &total_bytes) == cudaSuccess)
       d.free_memory = free_bytes;

@@ -11,11 +11,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <optional>
 
 #include "cuda/pipeline_cuda.hpp"
+#include "stage_plan.hpp"
 #include "extract/extract.hpp"
 #include "field/anisotropy.hpp"
 #include "field/distance_field.hpp"
@@ -255,9 +257,10 @@ Params resolve_params(const ParticleSet& particles, const Params& in) {
   return p;
 }
 
-Result reconstruct(const ParticleSet& particles, const Params& params, const ProgressFn& progress) {
-  Result result;
-  Stats& stats = result.stats;
+namespace {
+
+/// The input checks of reconstruct(); returns the particles' velocity attribute (or null).
+const Attribute* check_inputs(const ParticleSet& particles, const Params& params) {
   check_particles(particles);
   if (particles.size() == 0) throw InvalidParameter("no particles to surface");
   for (const std::string& name : params.transfer)
@@ -271,16 +274,11 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
   if (params.velocity_weighted && !velocity)
     throw InvalidParameter("velocity_weighted: the particles have no velocity attribute (v, vel or velocity with 3 "
                            "components); surface without --velocity-weighted");
+  return velocity;
+}
 
-  tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
-                              std::size_t(params.threads > 0 ? params.threads : tbb::info::default_concurrency()));
-  StageTimer timer(stats, progress);
-  HeapReuseScope reuse;  // up to the smoothing, where the CLI asks for it (meniscus/memory.hpp)
-  Params p = timer.run("parameters", [&] { return resolve_params(particles, params); });
-  result.params = p;
-  stats.spacing_estimated = params.spacing == 0;
-  stats.particles = particles.size();
-  stats.threads = p.threads;
+/// Warnings about resolved parameters that will not give what the user expects.
+void warn_about(const Params& p, Stats& stats) {
   const double d = p.spacing, h = p.voxel_size;
   if (p.r_outer * p.r_outer <= d * d / 2 + p.r_inner * p.r_inner)
     stats.warnings.push_back(fmt::format(
@@ -290,152 +288,216 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
   if (p.erode > h / 2)
     stats.warnings.push_back(
         fmt::format("erode {:g} exceeds half a voxel ({:g}); large erosion can self-intersect", p.erode, h / 2));
+}
 
+/// The CUDA backend, when asked (refused without a device) or, for auto, when a real device is
+/// there (never the emulated one of a MENISCUS_CUDA_EMULATION build, unless a test asks for it).
+/// Returns whether it ran; a failure of auto's attempt leaves a warning and the CPU runs.
+bool run_on_device(const PipelineInput& in, Result& result, const ProgressFn& progress) {
+  Stats& stats = result.stats;
+  const Params& p = in.params;
+  if (p.backend == Backend::cpu) return false;
+  std::string why;
+  const std::vector<CudaDeviceInfo> devices = cuda_devices(&why);
+  const bool auto_takes_emulated = std::getenv("MENISCUS_EMULATED_DEVICE_FOR_AUTO") != nullptr;
+  const bool have_device =
+      p.backend == Backend::cuda
+          ? !devices.empty()
+          : std::any_of(devices.begin(), devices.end(),
+                        [&](const CudaDeviceInfo& dev) { return !dev.emulated || auto_takes_emulated; });
+  if (!devices.empty() && !have_device) why = "the CUDA device is emulated (a test build)";
+  if (p.backend == Backend::cuda && !have_device)
+    throw ResourceError(fmt::format("--backend cuda: no CUDA backend available ({}); use --backend cpu or auto", why));
+  if (!have_device) {
+    if (cuda_built()) stats.warnings.push_back(fmt::format("backend auto: {}; running on the CPU", why));
+    return false;
+  }
+  const std::size_t stages_before = stats.stages.size();
+  try {
+    cuda::reconstruct(in, stats, result.mesh, progress);
+    stats.backend = "cuda";
+    return true;
+  } catch (const ResourceError& e) {
+    if (p.backend == Backend::cuda) throw;
+    stats.stages.resize(stages_before);
+    stats.device_calls.clear();
+    result.mesh = {};
+    stats.warnings.push_back(fmt::format("CUDA backend failed, running on the CPU instead: {}", e.what()));
+    return false;
+  }
+}
+
+/// The CPU pipeline: the stages of `plan`, in order, each timed.
+class CpuPipeline {
+ public:
+  CpuPipeline(const PipelineInput& in, Result& result, const ProgressFn& progress)
+      : particles_(in.particles), p_(in.params), plan_(in.plan), volumes_(in.volumes), velocity_(in.velocity),
+        stats_(result.stats), mesh_(result.mesh), progress_(progress), timer_(result.stats, progress) {}
+
+  void run() {
+    particle_frames();
+    build_grid();
+    field_and_extract();
+    remove_small_components();
+    reorder();
+    smooth();
+    if (plan_.erode)
+      stats_.flipped_triangles =
+          timer_.run("erode", [&] { return erode(mesh_.vertices, mesh_.triangles, plan_.erode_distance); });
+    transfer();
+    timer_.run("normals", [&] { mesh_.normals = vertex_normals(mesh_.vertices, mesh_.triangles); });
+  }
+
+ private:
+  /// Kernel centres: the particles, Laplacian-smoothed when asked (Yu & Turk §5), and the
+  /// anisotropic ellipsoids; the constraints use the centres too.
+  void particle_frames() {
+    const ParticlePass& pass = plan_.particles;
+    if (!pass.run) return;
+    centres_ = timer_.run("particles", [&] {
+      const HashGrid raw(particles_.positions, pass.raw_cell);
+      if (pass.anisotropic) ellipsoids_ = yu_turk_ellipsoids(raw, pass.pca_radius, pass.constants);
+      return pass.lambda > 0 ? smooth_positions(raw, pass.smooth_radius, pass.lambda) : particles_.positions;
+    });
+  }
+
+  void build_grid() {
+    const std::span<const Vec3f> positions =
+        centres_.empty() ? std::span<const Vec3f>(particles_.positions) : std::span<const Vec3f>(centres_);
+    grid_ = timer_.run("grid", [&] { return HashGrid(positions, plan_.grid_cell); });
+    sorted_ellipsoids_ = to_sorted_order(*grid_, ellipsoids_);
+  }
+
+  void field_and_extract() {
+    const double max_bytes = p_.max_memory_gb * 1e9;
+    const double d = p_.spacing;
+    ExtractResult extracted;
+    if (!plan_.kernel_field) {
+      const SparseField field = timer_.run("field", [&] {
+        return distance_field(*grid_, plan_.lattice, plan_.distance_band,
+                              checked_band_blocks(*grid_, plan_.lattice, plan_.distance_band, max_bytes, p_));
+      });
+      stats_.field_blocks = field.block_count();
+      extracted = timer_.run("extract", [&] { return extract_surface(field, plan_.iso, plan_.extractor); });
+    } else {
+      KernelFieldInput in;
+      in.centres = &*grid_;
+      in.method = plan_.field;
+      in.kernel_radius = float(p_.kernel_radius);
+      in.iso = float(p_.iso);
+      in.uniform_volume = float(d * d * d);
+      const std::vector<float> sorted_volumes = to_sorted_order(*grid_, volumes_);
+      in.volumes = sorted_volumes;
+      in.ellipsoids = sorted_ellipsoids_;
+      const SparseField field = timer_.run("field", [&] {
+        const float band = kernel_support(in) + float(p_.voxel_size);
+        return kernel_field(in, plan_.lattice, checked_band_blocks(*grid_, plan_.lattice, band, max_bytes, p_));
+      });
+      stats_.field_blocks = field.block_count();
+      extracted = timer_.run("extract", [&] { return extract_surface(field, plan_.iso, plan_.extractor); });
+    }
+    stats_.dropped_triangles = extracted.dropped_triangles;
+    mesh_ = std::move(extracted.mesh);
+  }
+
+  void remove_small_components() {
+    if (plan_.remove_voids)
+      stats_.removed_voids = timer_.run("voids", [&] { return remove_small_voids(mesh_, plan_.void_volume); });
+    if (plan_.remove_blobs)
+      stats_.removed_blobs = timer_.run("blobs", [&] {
+        return remove_unsupported_blobs(mesh_, *grid_, plan_.void_volume, plan_.blob_min_volume);
+      });
+  }
+
+  /// The extraction numbers vertices in edge-key (row-major) order; the sweeps run 2-4x faster on a
+  /// Z-ordered mesh, where a vertex's ring and particle list sit near it in memory.
+  void reorder() {
+    if (!plan_.sweeps) return;
+    reuse_.end();  // the reordered mesh, which lives through the smoothing, gets its own mappings
+    timer_.run("reorder", [&] { reorder_vertices_spatially(mesh_); });
+    reuse_.end();  // and the heap gives back the old mesh the reorder freed
+  }
+
+  void smooth() {
+    timer_.run("smooth", [&] {
+      SmoothOptions o;
+      static_cast<SmoothSchedule&>(o) = plan_.schedule;
+      std::vector<float> weights;
+      if (plan_.velocity_weights) {
+        weights = velocity_weights(*velocity_, *grid_, mesh_.vertices, p_);
+        o.vertex_relax = weights;
+      }
+      // The particles' original indices serve only the attribute transfer from here on: without
+      // one, 4 bytes a particle less through the sweeps (4 MB of a 1M-particle block's peak).
+      if (plan_.transfer.empty()) grid_->release_order();
+      const auto tick = [&](double f) { if (progress_) progress_("smooth", f); };
+      if (plan_.ellipsoid_shells) {
+        std::vector<Ellipsoid> shells(sorted_ellipsoids_.size());
+        float max_axis = 0;
+        for (std::size_t i = 0; i < shells.size(); ++i) {
+          shells[i] = unit_volume_shell(sorted_ellipsoids_[i]);
+          max_axis = std::max(max_axis, shells[i].max_axis);
+        }
+        const EllipsoidConstraint constraint{&*grid_, shells, plan_.r_inner, plan_.r_outer, max_axis};
+        stats_.smoothing = smooth_surface(mesh_.vertices, mesh_.triangles, &constraint, o, tick);
+      } else {
+        const ShellConstraint constraint{&*grid_, plan_.r_inner, plan_.r_outer};
+        stats_.smoothing = smooth_surface(mesh_.vertices, mesh_.triangles, &constraint, o, tick);
+      }
+    });
+  }
+
+  void transfer() {
+    if (plan_.transfer.empty()) return;
+    timer_.run("transfer", [&] {
+      for (const std::string& name : plan_.transfer)
+        mesh_.attributes.push_back(transfer_attribute(*particles_.find(name), *grid_, mesh_.vertices, plan_.transfer_radius));
+    });
+  }
+
+  const ParticleSet& particles_;
+  const Params& p_;
+  const StagePlan& plan_;
+  const std::vector<float>& volumes_;
+  const Attribute* velocity_;
+  Stats& stats_;
+  TriangleMesh& mesh_;
+  const ProgressFn& progress_;
+  StageTimer timer_;
+  HeapReuseScope reuse_;  // up to the smoothing, where the CLI asks for it (meniscus/memory.hpp)
+  std::vector<Vec3f> centres_;
+  std::vector<Ellipsoid> ellipsoids_, sorted_ellipsoids_;  // original order; the grid's
+  std::optional<HashGrid> grid_;
+};
+
+}  // namespace
+
+Result reconstruct(const ParticleSet& particles, const Params& params, const ProgressFn& progress) {
+  Result result;
+  Stats& stats = result.stats;
+  const Attribute* velocity = check_inputs(particles, params);
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                              std::size_t(params.threads > 0 ? params.threads : tbb::info::default_concurrency()));
+  Params p = StageTimer(stats, progress).run("parameters", [&] { return resolve_params(particles, params); });
+  stats.spacing_estimated = params.spacing == 0;
+  stats.particles = particles.size();
+  stats.threads = p.threads;
+  warn_about(p, stats);
   // The velocity weighting's reference speed, when not given (both backends use it).
   if (p.velocity_weighted && p.velocity_reference == 0) p.velocity_reference = velocity_reference(*velocity);
   result.params = p;
   // SPH volumes per original particle for the sph and anisotropic fields (empty: uniform d³).
   const std::vector<float> volumes = p.field == FieldMethod::sph || p.field == FieldMethod::anisotropic
-                                         ? particle_volumes(particles, d)
+                                         ? particle_volumes(particles, p.spacing)
                                          : std::vector<float>{};
-
-  // Backend: cuda when asked (refused without a device) or, for auto, when a device is there.
-  if (p.backend != Backend::cpu) {
-    std::string why;
-    const bool have_device = !cuda_devices(&why).empty();
-    if (p.backend == Backend::cuda && !have_device)
-      throw ResourceError(fmt::format("--backend cuda: no CUDA backend available ({}); use --backend cpu or auto", why));
-    if (have_device) {
-      const std::size_t stages_before = stats.stages.size();
-      try {
-        cuda::reconstruct(particles, p, volumes, velocity, stats, result.mesh, progress);
-        stats.backend = "cuda";
-        stats.peak_memory_bytes = peak_rss_bytes();
-        return result;
-      } catch (const ResourceError& e) {
-        if (p.backend == Backend::cuda) throw;
-        stats.stages.resize(stages_before);
-        result.mesh = {};
-        stats.warnings.push_back(fmt::format("CUDA backend failed, running on the CPU instead: {}", e.what()));
-      }
-    } else if (cuda_built()) {
-      stats.warnings.push_back(fmt::format("backend auto: {}; running on the CPU", why));
-    }
+  const StagePlan plan = plan_stages(p);  // both backends run these stages
+  const PipelineInput in{particles, p, plan, volumes, velocity};
+  if (!run_on_device(in, result, progress)) {
+    stats.backend = "cpu";
+    CpuPipeline(in, result, progress).run();
   }
-  stats.backend = "cpu";
-
-  const float r_outer = float(p.r_outer), r_inner = float(p.r_inner);
-  const bool anisotropic = p.field == FieldMethod::anisotropic;
-  // Kernel centres: the particles, Laplacian-smoothed when asked (Yu & Turk §5); the constraints
-  // use the centres too, so the surface follows the smoothed positions.
-  std::vector<Ellipsoid> ellipsoids;  // original order
-  const ParticlePass pass = particle_pass(p);
-  const std::vector<Vec3f> centres = [&] {
-    if (!pass.run) return std::vector<Vec3f>{};
-    return timer.run("particles", [&] {
-      const HashGrid raw(particles.positions, pass.raw_cell);
-      if (anisotropic) ellipsoids = yu_turk_ellipsoids(raw, pass.pca_radius, pass.constants);
-      return pass.lambda > 0 ? smooth_positions(raw, pass.smooth_radius, pass.lambda) : particles.positions;
-    });
-  }();
-  const std::span<const Vec3f> positions = centres.empty() ? std::span<const Vec3f>(particles.positions) : centres;
-  // Cells of 2·r_outer: a nearest-particle query for a vertex near the surface then touches
-  // about 8 cells of a few particles each, far fewer hash lookups than with r_outer cells.
-  HashGrid grid = timer.run("grid", [&] { return HashGrid(positions, 2 * r_outer); });
-  const std::vector<Ellipsoid> sorted_ellipsoids = to_sorted_order(grid, ellipsoids);
-
-  SampleLattice lattice;
-  lattice.kind = p.extract == Extractor::tiles ? SampleLattice::Kind::a15 : SampleLattice::Kind::cubic;
-  lattice.cell_size = float(p.extract == Extractor::tiles ? 2 * h : h);
-  const double max_bytes = p.max_memory_gb * 1e9;
-
-  ExtractResult extracted = [&] {
-    if (p.field == FieldMethod::distance) {
-      const float band = field_band(p);
-      const SparseField field = timer.run("field", [&] {
-        return distance_field(grid, lattice, band, checked_band_blocks(grid, lattice, band, max_bytes, p));
-      });
-      stats.field_blocks = field.block_count();
-      return timer.run("extract", [&] { return extract_surface(field, r_outer, p.extract); });
-    }
-    KernelFieldInput in;
-    in.centres = &grid;
-    in.method = p.field;
-    in.kernel_radius = float(p.kernel_radius);
-    in.iso = float(p.iso);
-    in.uniform_volume = float(d * d * d);
-    const std::vector<float> sorted_volumes = to_sorted_order(grid, volumes);
-    in.volumes = sorted_volumes;
-    in.ellipsoids = sorted_ellipsoids;
-    const SparseField field = timer.run("field", [&] {
-      const float band = kernel_support(in) + float(h);
-      return kernel_field(in, lattice, checked_band_blocks(grid, lattice, band, max_bytes, p));
-    });
-    stats.field_blocks = field.block_count();
-    return timer.run("extract", [&] { return extract_surface(field, 0.0f, p.extract); });
-  }();
-  stats.dropped_triangles = extracted.dropped_triangles;
-  TriangleMesh& mesh = result.mesh;
-  mesh = std::move(extracted.mesh);
-  if (!p.keep_voids)
-    stats.removed_voids = timer.run("voids", [&] { return remove_small_voids(mesh, small_component_volume(d)); });
-  // A kernel field can close a blob around the gap between particles, with no particle inside,
-  // or a blob smaller than the inner shell of its particle; the smoothing would crush either into
-  // zero-area triangles (remove_unsupported_blobs).
-  if (p.field != FieldMethod::distance)
-    stats.removed_blobs = timer.run("blobs", [&] {
-      return remove_unsupported_blobs(mesh, grid, small_component_volume(d), inner_ball_volume(p.r_inner));
-    });
-  // The extraction numbers vertices in edge-key (row-major) order; the sweeps run 2-4x faster
-  // on a Z-ordered mesh, where a vertex's ring and particle list sit near it in memory.
-  if (p.steps_a + p.steps_b + p.steps_free > 0) {
-    reuse.end();  // the reordered mesh, which lives through the smoothing, gets its own mappings
-    timer.run("reorder", [&] { reorder_vertices_spatially(mesh); });
-    reuse.end();  // and the heap gives back the old mesh the reorder freed
-  }
-
-  timer.run("smooth", [&] {
-    SmoothOptions o;
-    static_cast<SmoothSchedule&>(o) = smooth_schedule(p);
-    std::vector<float> weights;
-    if (p.velocity_weighted) {
-      weights = velocity_weights(*velocity, grid, mesh.vertices, p);
-      o.vertex_relax = weights;
-    }
-    // The particles' original indices serve only the attribute transfer from here on: without
-    // one, 4 bytes a particle less through the sweeps (4 MB of a 1M-particle block's peak).
-    if (p.transfer.empty()) grid.release_order();
-    const auto tick = [&](double f) { if (progress) progress("smooth", f); };
-    if (anisotropic) {
-      std::vector<Ellipsoid> shells(sorted_ellipsoids.size());
-      float max_axis = 0;
-      for (std::size_t i = 0; i < shells.size(); ++i) {
-        shells[i] = unit_volume_shell(sorted_ellipsoids[i]);
-        max_axis = std::max(max_axis, shells[i].max_axis);
-      }
-      const EllipsoidConstraint constraint{&grid, shells, r_inner, r_outer, max_axis};
-      stats.smoothing = smooth_surface(mesh.vertices, mesh.triangles, &constraint, o, tick);
-    } else {
-      const ShellConstraint constraint{&grid, r_inner, r_outer};
-      stats.smoothing = smooth_surface(mesh.vertices, mesh.triangles, &constraint, o, tick);
-    }
-  });
-  result.params = p;  // velocity_reference as used
-
-  if (p.erode > 0)
-    stats.flipped_triangles = timer.run("erode", [&] { return erode(mesh.vertices, mesh.triangles, float(p.erode)); });
-
-  if (!p.transfer.empty())
-    timer.run("transfer", [&] {
-      for (const std::string& name : p.transfer)
-        mesh.attributes.push_back(
-            transfer_attribute(*particles.find(name), grid, mesh.vertices, float(p.transfer_radius)));
-    });
-
-  timer.run("normals", [&] { mesh.normals = vertex_normals(mesh.vertices, mesh.triangles); });
-
-  stats.vertices = mesh.vertices.size();
-  stats.triangles = mesh.triangles.size();
+  stats.vertices = result.mesh.vertices.size();
+  stats.triangles = result.mesh.triangles.size();
   stats.peak_memory_bytes = peak_rss_bytes();
   return result;
 }
@@ -460,6 +522,19 @@ std::string stats_to_json(const Result& result) {
   nlohmann::ordered_json stages = nlohmann::ordered_json::object();
   for (const StageTime& t : s.stages) stages[t.name] = t.seconds;
   j["stages"] = stages;
+  if (!s.device_calls.empty()) {  // the CUDA backend: what each stage asked of the device, and in all
+    nlohmann::ordered_json calls = nlohmann::ordered_json::object();
+    DeviceStageCalls total{"total"};
+    for (const DeviceStageCalls& c : s.device_calls) {
+      calls[c.name] = {{"launches", c.launches}, {"uploads", c.uploads}, {"downloads", c.downloads},
+                       {"device_copies", c.device_copies}, {"memsets", c.memsets}, {"waits", c.waits}};
+      total.launches += c.launches, total.uploads += c.uploads, total.downloads += c.downloads;
+      total.device_copies += c.device_copies, total.memsets += c.memsets, total.waits += c.waits;
+    }
+    calls["total"] = {{"launches", total.launches}, {"uploads", total.uploads}, {"downloads", total.downloads},
+                      {"device_copies", total.device_copies}, {"memsets", total.memsets}, {"waits", total.waits}};
+    j["device_calls"] = calls;
+  }
   j["smoothing"] = {{"energy_start", s.smoothing.energy_start},
                     {"energy_final", s.smoothing.energy_final},
                     {"relax_halvings", s.smoothing.relax_halvings},

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <string_view>
@@ -32,6 +33,14 @@ struct SmoothingStats {
   double b_sweeps_seconds = 0;  ///< the B sweeps, constrained and free (redone ones included)
 };
 
+/// What one stage of the CUDA backend asked of the device: kernel launches, copies to the device,
+/// to the host and within it, memsets, and waits (the host waiting for the device: a copy to the
+/// host, an event synchronisation) — the costs that decide a small frame's time on a GPU.
+struct DeviceStageCalls {
+  std::string name;
+  std::uint64_t launches = 0, uploads = 0, downloads = 0, device_copies = 0, memsets = 0, waits = 0;
+};
+
 struct Stats {
   std::size_t particles = 0;
   std::size_t vertices = 0;
@@ -47,6 +56,7 @@ struct Stats {
   bool spacing_estimated = false;
   SmoothingStats smoothing;
   std::vector<StageTime> stages;       ///< in pipeline order
+  std::vector<DeviceStageCalls> device_calls;  ///< per stage, with the CUDA backend only
   std::vector<std::string> warnings;
   double total_seconds() const;
 };

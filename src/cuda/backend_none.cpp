@@ -13,8 +13,7 @@ std::vector<CudaDeviceInfo> cuda_devices(std::string* reason) {
 }
 
 namespace cuda {
-void reconstruct(const ParticleSet&, const Params&, const std::vector<float>&, const Attribute*, Stats&, TriangleMesh&,
-                 const ProgressFn&) {
+void reconstruct(const PipelineInput&, Stats&, TriangleMesh&, const ProgressFn&) {
   throw ResourceError("the CUDA backend is not built in (built without CUDA; configure with -DMENISCUS_CUDA=ON)");
 }
 }  // namespace cuda

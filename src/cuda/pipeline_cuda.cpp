@@ -32,6 +32,7 @@ class EventTimer {
   template <class F>
   auto run(const char* name, F&& f) {
     if (progress_) progress_(name, 0.0);
+    calls_ = device_calls;
     MENISCUS_CUDA_CHECK(cudaEventRecord(start_));
     if constexpr (std::is_void_v<decltype(f())>) {
       f();
@@ -46,6 +47,10 @@ class EventTimer {
  private:
   void finish(const char* name) {
     MENISCUS_CUDA_CHECK(cudaEventRecord(stop_));
+    const DeviceCalls& now = device_calls;  // the timer's own wait below is not the stage's
+    stats_.device_calls.push_back({name, now.launches - calls_.launches, now.uploads - calls_.uploads,
+                                   now.downloads - calls_.downloads, now.device_copies - calls_.device_copies,
+                                   now.memsets - calls_.memsets, now.waits - calls_.waits});
     MENISCUS_CUDA_CHECK(cudaEventSynchronize(stop_));
     float ms = 0;
     MENISCUS_CUDA_CHECK(cudaEventElapsedTime(&ms, start_, stop_));
@@ -54,6 +59,7 @@ class EventTimer {
   }
   Stats& stats_;
   const ProgressFn& progress_;
+  DeviceCalls calls_;
   cudaEvent_t start_ = nullptr, stop_ = nullptr;
 };
 
@@ -67,164 +73,213 @@ void check_fits(double bytes, const char* what) {
 
 }  // namespace
 
-void reconstruct(const ParticleSet& particles, const Params& p, const std::vector<float>& volumes,
-                 const Attribute* velocity, Stats& stats, TriangleMesh& mesh, const ProgressFn& progress) {
-  MENISCUS_CUDA_CHECK(cudaSetDevice(0));
-  const std::size_t n = particles.size();
-  if (n >= std::size_t(kNotFound)) throw ResourceError(fmt::format("{} points exceed the 2^32-1 limit", n));
-  const float r_outer = float(p.r_outer), r_inner = float(p.r_inner), h = float(p.voxel_size);
-  const float cell_size = 2 * r_outer;
-  const double d = p.spacing;
-  const bool anisotropic = p.field == FieldMethod::anisotropic;
-  const bool kernel = p.field != FieldMethod::distance;
+namespace {
 
-  // The grid's coordinate range, checked on the host as the CPU grid does (the positions are
-  // read here anyway to upload them).
-  Vec3f lo = particles.positions[0], hi = lo;
-  for (const Vec3f& q : particles.positions) lo = min(lo, q), hi = max(hi, q);
-  // (The grid of the raw particles for Yu & Turk has its own cell size, as on the CPU.)
-  const ParticlePass pass = particle_pass(p);
-  const float smallest_cell = pass.run ? std::min(cell_size, pass.raw_cell) : cell_size;
-  const double limit = double(kMaxCoord) * smallest_cell;
-  for (int a = 0; a < 3; ++a)
-    if (std::abs(double(lo[a])) >= limit || std::abs(double(hi[a])) >= limit)
-      throw ResourceError(fmt::format("points reach {:g} on axis {}, more than {} cells of size {:g} from the origin",
-                                      std::max(std::abs(double(lo[a])), std::abs(double(hi[a]))), "xyz"[a], kMaxCoord,
-                                      smallest_cell));
-  // Positions and the hash grid; the raw grid and the centres for Yu & Turk; the ellipsoids (36 B,
-  // twice while reordered, plus the shells) and volumes of the field methods.
-  check_fits(double(n) * (64.0 + (pass.run ? 64.0 : 0.0) + (anisotropic ? 3 * 36.0 : 0.0) + (kernel ? 8.0 : 0.0)),
-             "the particles and their hash grid");
+/// The device pipeline: the stages of `plan`, in order, each timed with CUDA events, between one
+/// upload and one download.
+class DevicePipeline {
+ public:
+  DevicePipeline(const PipelineInput& in, Stats& stats, const ProgressFn& progress)
+      : particles_(in.particles), p_(in.params), plan_(in.plan), volumes_(in.volumes), velocity_(in.velocity),
+        stats_(stats), timer_(stats, progress) {}
 
-  EventTimer timer(stats, progress);
-  DeviceBuffer<Vec3f> points;
-  std::vector<DeviceBuffer<float>> attributes(p.transfer.size());
-  DeviceBuffer<float> device_volumes, device_velocity;
-  timer.run("upload", [&] {
-    points.upload(particles.positions.data(), n);
-    for (std::size_t k = 0; k < p.transfer.size(); ++k) {
-      const Attribute* a = particles.find(p.transfer[k]);
-      attributes[k].upload(a->values.data(), a->values.size());
-    }
-    if (!volumes.empty()) device_volumes.upload(volumes.data(), volumes.size());
-    if (p.velocity_weighted) device_velocity.upload(velocity->values.data(), velocity->values.size());
-  });
+  void run(TriangleMesh& out) {
+    check_coordinates_and_memory();
+    upload();
+    particle_frames();
+    build_grid();
+    field_and_extract();
+    if (plan_.remove_voids)
+      stats_.removed_voids = timer_.run("voids", [&] { return remove_small_voids(mesh_, plan_.void_volume); });
+    if (plan_.remove_blobs)
+      stats_.removed_blobs = timer_.run("blobs", [&] {
+        return remove_unsupported_blobs(mesh_, grid_, plan_.void_volume, plan_.blob_min_volume);
+      });
+    if (plan_.sweeps) timer_.run("reorder", [&] { reorder_vertices_spatially(mesh_); });
+    adj_ = timer_.run("adjacency", [&] { return build_adjacency(mesh_); });
+    smooth();
+    if (plan_.erode)
+      stats_.flipped_triangles = timer_.run("erode", [&] { return erode(mesh_, adj_, plan_.erode_distance); });
+    transfer();
+    normals_ = timer_.run("normals", [&] { return vertex_normals(mesh_, adj_); });
+    download(out);
+  }
 
-  // Kernel centres: the particles, Laplacian-smoothed when asked (Yu & Turk §5), and the
-  // anisotropic ellipsoids, both from a grid of the raw particles (as pipeline.cpp).
-  DeviceBuffer<Ellipsoid> ellipsoids;  // original order, then the grid's
-  if (pass.run)
-    timer.run("particles", [&] {
+ private:
+  /// The grid's coordinate range, checked on the host as the CPU grid does (the positions are read
+  /// here anyway to upload them), and the particles' share of the device memory.
+  void check_coordinates_and_memory() {
+    const std::size_t n = particles_.size();
+    if (n >= std::size_t(kNotFound)) throw ResourceError(fmt::format("{} points exceed the 2^32-1 limit", n));
+    lo_ = particles_.positions[0], hi_ = lo_;
+    for (const Vec3f& q : particles_.positions) lo_ = min(lo_, q), hi_ = max(hi_, q);
+    const ParticlePass& pass = plan_.particles;  // the raw particles' grid has its own cell size
+    const float smallest_cell = pass.run ? std::min(plan_.grid_cell, pass.raw_cell) : plan_.grid_cell;
+    const double limit = double(kMaxCoord) * smallest_cell;
+    for (int a = 0; a < 3; ++a)
+      if (std::abs(double(lo_[a])) >= limit || std::abs(double(hi_[a])) >= limit)
+        throw ResourceError(fmt::format("points reach {:g} on axis {}, more than {} cells of size {:g} from the origin",
+                                        std::max(std::abs(double(lo_[a])), std::abs(double(hi_[a]))), "xyz"[a],
+                                        kMaxCoord, smallest_cell));
+    // Positions and the hash grid; the raw grid and the centres for Yu & Turk; the ellipsoids
+    // (36 B, twice while reordered, plus the shells) and volumes of the field methods.
+    check_fits(double(n) * (64.0 + (pass.run ? 64.0 : 0.0) + (pass.anisotropic ? 3 * 36.0 : 0.0) +
+                            (plan_.kernel_field ? 8.0 : 0.0)),
+               "the particles and their hash grid");
+  }
+
+  void upload() {
+    const std::size_t n = particles_.size();
+    attributes_.resize(plan_.transfer.size());
+    timer_.run("upload", [&] {
+      points_.upload(particles_.positions.data(), n);
+      for (std::size_t k = 0; k < plan_.transfer.size(); ++k) {
+        const Attribute* a = particles_.find(plan_.transfer[k]);
+        attributes_[k].upload(a->values.data(), a->values.size());
+      }
+      if (!volumes_.empty()) volumes_device_.upload(volumes_.data(), volumes_.size());
+      if (plan_.velocity_weights) velocity_device_.upload(velocity_->values.data(), velocity_->values.size());
+    });
+  }
+
+  /// Kernel centres: the particles, Laplacian-smoothed when asked (Yu & Turk §5), and the
+  /// anisotropic ellipsoids, both from a grid of the raw particles (as the CPU pipeline).
+  void particle_frames() {
+    const ParticlePass& pass = plan_.particles;
+    if (!pass.run) return;
+    const uint32_t n = uint32_t(particles_.size());
+    timer_.run("particles", [&] {
       const DeviceGrid raw =
-          build_grid(points, uint32_t(n), pass.raw_cell, grid_cell_of(lo, pass.raw_cell), grid_cell_of(hi, pass.raw_cell));
+          ::meniscus::cuda::build_grid(points_, n, pass.raw_cell, grid_cell_of(lo_, pass.raw_cell), grid_cell_of(hi_, pass.raw_cell));
       DeviceBuffer<Vec3f> centres;
-      particle_frames(raw, pass.pca_radius, pass.constants, pass.smooth_radius, pass.lambda,
-                      pass.lambda > 0 ? &centres : nullptr, anisotropic ? &ellipsoids : nullptr);
+      ::meniscus::cuda::particle_frames(raw, pass.pca_radius, pass.constants, pass.smooth_radius, pass.lambda,
+                                        pass.lambda > 0 ? &centres : nullptr, pass.anisotropic ? &ellipsoids_ : nullptr);
       if (pass.lambda > 0) {
-        points = std::move(centres);
-        point_bounds(points, uint32_t(n), &lo, &hi);  // within the particles' bounds up to rounding
+        points_ = std::move(centres);
+        point_bounds(points_, n, &lo_, &hi_);  // within the particles' bounds up to rounding
       }
     });
-  const DeviceGrid grid = timer.run("grid", [&] {
-    DeviceGrid g = build_grid(points, uint32_t(n), cell_size, grid_cell_of(lo, cell_size), grid_cell_of(hi, cell_size));
-    if (anisotropic) ellipsoids = to_sorted_order(g, ellipsoids);
-    if (!volumes.empty()) device_volumes = to_sorted_order(g, device_volumes);
-    return g;
-  });
-  points = {};
+  }
 
-  SampleLattice lattice;
-  lattice.kind = p.extract == Extractor::tiles ? SampleLattice::Kind::a15 : SampleLattice::Kind::cubic;
-  lattice.cell_size = float(p.extract == Extractor::tiles ? 2 * h : h);
+  void build_grid() {
+    const float cell = plan_.grid_cell;
+    grid_ = timer_.run("grid", [&] {
+      DeviceGrid g = ::meniscus::cuda::build_grid(points_, uint32_t(particles_.size()), cell, grid_cell_of(lo_, cell),
+                                                  grid_cell_of(hi_, cell));
+      if (plan_.particles.anisotropic) ellipsoids_ = to_sorted_order(g, ellipsoids_);
+      if (!volumes_.empty()) volumes_device_ = to_sorted_order(g, volumes_device_);
+      return g;
+    });
+    points_ = {};
+  }
 
-  DeviceMesh dmesh = [&] {
+  void field_and_extract() {
+    const double d = p_.spacing;
     KernelParticles k;
-    k.method = p.field;
-    k.radius = float(p.kernel_radius);
-    k.volumes = device_volumes.size() > 0 ? device_volumes.data() : nullptr;
+    k.method = plan_.field;
+    k.radius = float(p_.kernel_radius);
+    k.volumes = volumes_device_.size() > 0 ? volumes_device_.data() : nullptr;
     k.uniform_volume = float(d * d * d);
-    k.ellipsoids = anisotropic ? ellipsoids.data() : nullptr;
-    const float support =
-        kernel_field_support(p.field, k.radius, anisotropic ? max_ellipsoid_axis(ellipsoids, uint32_t(n)) : 0.0f);
-    const float band = kernel ? support + h : field_band(p);
-    const DeviceField field = timer.run("field", [&] {
+    k.ellipsoids = plan_.particles.anisotropic ? ellipsoids_.data() : nullptr;
+    const float support = kernel_field_support(
+        plan_.field, k.radius,
+        plan_.particles.anisotropic ? max_ellipsoid_axis(ellipsoids_, uint32_t(particles_.size())) : 0.0f);
+    const float band = plan_.kernel_field ? support + float(p_.voxel_size) : plan_.distance_band;
+    const DeviceField field = timer_.run("field", [&] {
       std::size_t blocks = 0;
-      DeviceBuffer<uint64_t> keys = band_blocks(grid, lattice, band, &blocks);
+      DeviceBuffer<uint64_t> keys = band_blocks(grid_, plan_.lattice, band, &blocks);
       // Field values, masks, the marching counts of the blocks and their ghosts, the corners.
-      const double cells = double(kBlockSamples / lattice.samples_per_cell());
+      const double cells = double(kBlockSamples / plan_.lattice.samples_per_cell());
       const double bytes = double(blocks) * (kBlockSamples * 4.0 + 8.0 + cells * (1.0 + 2.0 * 16.0));
-      if (bytes > p.max_memory_gb * 1e9)
+      if (bytes > p_.max_memory_gb * 1e9)
         throw ResourceError(fmt::format("the {} field would need about {:.1f} GB ({} blocks), more than the "
                                         "{:.1f} GB allowed; use a larger --voxel-size or raise --max-memory",
-                                        to_string(p.field), bytes / 1e9, blocks, p.max_memory_gb));
+                                        to_string(plan_.field), bytes / 1e9, blocks, p_.max_memory_gb));
       check_fits(bytes, "the field and the extraction");
-      if (!kernel) return distance_field(grid, lattice, band, std::move(keys), blocks);
-      const float iso = float(p.iso);
-      return kernel_field(grid, lattice, k, support, iso, kernel_field_background(p.field, k.radius, iso),
+      if (!plan_.kernel_field) return distance_field(grid_, plan_.lattice, band, std::move(keys), blocks);
+      const float iso = float(p_.iso);
+      return kernel_field(grid_, plan_.lattice, k, support, iso, kernel_field_background(plan_.field, k.radius, iso),
                           std::move(keys), blocks);
     });
-    stats.field_blocks = field.blocks;
-    return timer.run("extract", [&] { return extract_surface(field, kernel ? 0.0f : r_outer, p.extract); });
-  }();
-  stats.dropped_triangles = 0;
-  if (!p.keep_voids)
-    stats.removed_voids = timer.run("voids", [&] { return remove_small_voids(dmesh, small_component_volume(d)); });
-  // As on the CPU: a kernel field's blobs the smoothing cannot hold (mesh/voids.hpp).
-  if (kernel)
-    stats.removed_blobs = timer.run("blobs", [&] {
-      return remove_unsupported_blobs(dmesh, grid, small_component_volume(d), inner_ball_volume(p.r_inner));
-    });
-  if (p.steps_a + p.steps_b + p.steps_free > 0) timer.run("reorder", [&] { reorder_vertices_spatially(dmesh); });
+    stats_.field_blocks = field.blocks;
+    mesh_ = timer_.run("extract", [&] { return extract_surface(field, plan_.iso, plan_.extractor); });
+    stats_.dropped_triangles = 0;
+  }
 
-  const DeviceAdjacency adj = timer.run("adjacency", [&] { return build_adjacency(dmesh); });
-  timer.run("smooth", [&] {
-    SmoothSettings s;
-    DeviceBuffer<float> weights;
-    DeviceBuffer<Ellipsoid> shell_ellipsoids;
-    if (p.velocity_weighted && p.velocity_reference > 0) {
-      const DeviceBuffer<float> v = transfer_attribute(device_velocity, 3, grid, dmesh, float(p.transfer_radius));
-      weights = velocity_weights(v, dmesh.vertex_count, float(p.velocity_reference), float(p.velocity_min_weight));
-      s.vertex_relax = weights.data();
-    }
-    if (anisotropic) {
-      shell_ellipsoids = unit_volume_shells(ellipsoids);
-      s.shells = shell_ellipsoids.data();
-      s.max_axis = max_ellipsoid_axis(shell_ellipsoids, uint32_t(n));
-    }
-    static_cast<SmoothSchedule&>(s) = smooth_schedule(p);
-    s.r_inner = r_inner;
-    s.r_outer = r_outer;
-    stats.smoothing = smooth_surface(dmesh, adj, grid, s);
-  });
-  if (p.erode > 0) stats.flipped_triangles = timer.run("erode", [&] { return erode(dmesh, adj, float(p.erode)); });
-  std::vector<DeviceBuffer<float>> transferred;
-  if (!p.transfer.empty())
-    timer.run("transfer", [&] {
-      for (std::size_t k = 0; k < p.transfer.size(); ++k)
-        transferred.push_back(transfer_attribute(attributes[k], particles.find(p.transfer[k])->components, grid, dmesh,
-                                                 float(p.transfer_radius)));
+  void smooth() {
+    timer_.run("smooth", [&] {
+      SmoothSettings s;
+      DeviceBuffer<float> weights;
+      DeviceBuffer<Ellipsoid> shells;
+      if (plan_.velocity_weights && p_.velocity_reference > 0) {
+        const DeviceBuffer<float> v = transfer_attribute(velocity_device_, 3, grid_, mesh_, plan_.transfer_radius);
+        weights = velocity_weights(v, mesh_.vertex_count, float(p_.velocity_reference), float(p_.velocity_min_weight));
+        s.vertex_relax = weights.data();
+      }
+      if (plan_.ellipsoid_shells) {
+        shells = unit_volume_shells(ellipsoids_);
+        s.shells = shells.data();
+        s.max_axis = max_ellipsoid_axis(shells, uint32_t(particles_.size()));
+      }
+      static_cast<SmoothSchedule&>(s) = plan_.schedule;
+      s.r_inner = plan_.r_inner;
+      s.r_outer = plan_.r_outer;
+      stats_.smoothing = smooth_surface(mesh_, adj_, grid_, s);
     });
-  const DeviceBuffer<Vec3f> normals = timer.run("normals", [&] { return vertex_normals(dmesh, adj); });
+  }
 
-  timer.run("download", [&] {
-    mesh.vertices.resize(dmesh.vertex_count);
-    dmesh.vertices.download(mesh.vertices.data(), dmesh.vertex_count);
-    mesh.triangles.resize(dmesh.triangle_count);
-    dmesh.triangles.download(mesh.triangles.data()->data(), 3 * dmesh.triangle_count);
-    mesh.normals.resize(dmesh.vertex_count);
-    normals.download(mesh.normals.data(), dmesh.vertex_count);
-    for (std::size_t k = 0; k < p.transfer.size(); ++k) {
-      const Attribute* a = particles.find(p.transfer[k]);
-      Attribute out;
-      out.name = a->name;
-      out.components = a->components;
-      out.values.resize(transferred[k].size());
-      transferred[k].download(out.values.data(), out.values.size());
-      mesh.attributes.push_back(std::move(out));
-    }
-  });
-  stats.vertices = mesh.vertices.size();
-  stats.triangles = mesh.triangles.size();
+  void transfer() {
+    if (plan_.transfer.empty()) return;
+    timer_.run("transfer", [&] {
+      for (std::size_t k = 0; k < plan_.transfer.size(); ++k)
+        transferred_.push_back(transfer_attribute(attributes_[k], particles_.find(plan_.transfer[k])->components, grid_,
+                                                  mesh_, plan_.transfer_radius));
+    });
+  }
+
+  void download(TriangleMesh& out) {
+    timer_.run("download", [&] {
+      out.vertices.resize(mesh_.vertex_count);
+      mesh_.vertices.download(out.vertices.data(), mesh_.vertex_count);
+      out.triangles.resize(mesh_.triangle_count);
+      mesh_.triangles.download(out.triangles.data()->data(), 3 * mesh_.triangle_count);
+      out.normals.resize(mesh_.vertex_count);
+      normals_.download(out.normals.data(), mesh_.vertex_count);
+      for (std::size_t k = 0; k < plan_.transfer.size(); ++k) {
+        const Attribute* a = particles_.find(plan_.transfer[k]);
+        Attribute attribute;
+        attribute.name = a->name;
+        attribute.components = a->components;
+        attribute.values.resize(transferred_[k].size());
+        transferred_[k].download(attribute.values.data(), attribute.values.size());
+        out.attributes.push_back(std::move(attribute));
+      }
+    });
+  }
+
+  const ParticleSet& particles_;
+  const Params& p_;
+  const StagePlan& plan_;
+  const std::vector<float>& volumes_;
+  const Attribute* velocity_;
+  Stats& stats_;
+  EventTimer timer_;
+  Vec3f lo_{}, hi_{};
+  DeviceBuffer<Vec3f> points_;
+  std::vector<DeviceBuffer<float>> attributes_, transferred_;
+  DeviceBuffer<float> volumes_device_, velocity_device_;
+  DeviceBuffer<Ellipsoid> ellipsoids_;  // original order, then the grid's
+  DeviceGrid grid_;
+  DeviceMesh mesh_;
+  DeviceAdjacency adj_;
+  DeviceBuffer<Vec3f> normals_;
+};
+
+}  // namespace
+
+void reconstruct(const PipelineInput& in, Stats& stats, TriangleMesh& mesh, const ProgressFn& progress) {
+  MENISCUS_CUDA_CHECK(cudaSetDevice(0));
+  DevicePipeline(in, stats, progress).run(mesh);
 }
 
 }  // namespace meniscus::cuda

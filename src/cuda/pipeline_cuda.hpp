@@ -11,21 +11,21 @@
 #include "meniscus/params.hpp"
 #include "meniscus/particles.hpp"
 #include "meniscus/reconstruct.hpp"
+#include "stage_plan.hpp"
 
 #include <vector>
 
 namespace meniscus::cuda {
 
-/// Runs the stages after parameter resolution on CUDA device 0 with the resolved parameters
-/// `p` (Params after resolve_params). Appends the stage times (device time of each stage,
+/// Runs the stages of `in.plan` (the CPU pipeline's plan) on CUDA device 0 with the resolved
+/// parameters `in.params` (Params after resolve_params). Appends the stage times (device time of each stage,
 /// measured with CUDA events; "upload" and "download" are stages of their own) and the counts
 /// to `stats`, and fills `mesh`. Throws ResourceError when the job would not fit in device
 /// memory (checked before the large allocations), CudaError (a ResourceError) when a CUDA call
 /// fails, InvalidParameter like the CPU stages. Device memory is released on every path.
-/// `volumes`: the SPH volumes m/ρ per original particle for --field sph|anisotropic (empty:
-/// uniform d³); `velocity`: the particles' velocity attribute for --velocity-weighted (with
-/// p.velocity_reference resolved).
-void reconstruct(const ParticleSet& particles, const Params& p, const std::vector<float>& volumes,
-                 const Attribute* velocity, Stats& stats, TriangleMesh& mesh, const ProgressFn& progress);
+/// `in.volumes`: the SPH volumes m/ρ per original particle for --field sph|anisotropic;
+/// `in.velocity`: the particles' velocity attribute for --velocity-weighted (with
+/// velocity_reference resolved).
+void reconstruct(const PipelineInput& in, Stats& stats, TriangleMesh& mesh, const ProgressFn& progress);
 
 }  // namespace meniscus::cuda

@@ -1,0 +1,91 @@
+// meniscus — which stages a reconstruction runs, with which options (DESIGN §1): one description,
+// made once from the resolved parameters, that both pipelines follow — the CPU's (pipeline.cpp)
+// and the CUDA backend's (cuda/pipeline_cuda.cpp). A stage's own arithmetic lives in the stage;
+// what runs, in which order and with which values lives here.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "extract/field_band.hpp"
+#include "field/kernel_impl.hpp"
+#include "field/sparse_field.hpp"
+#include "meniscus/params.hpp"
+#include "meniscus/particles.hpp"
+#include "mesh/voids.hpp"
+#include "smooth/schedule.hpp"
+
+namespace meniscus {
+
+struct StagePlan {
+  /// `particles`: Yu & Turk's pass over the raw particles (smoothed centres, ellipsoids).
+  ParticlePass particles;
+  /// `grid`: the hash grid of the centres; cells of 2·r_outer, so a vertex's nearest-particle
+  /// query touches about 8 cells.
+  float grid_cell = 0;
+  /// `field`: the distance field (band `distance_band`), or a kernel field.
+  FieldMethod field = FieldMethod::distance;
+  bool kernel_field = false;
+  float distance_band = 0;
+  SampleLattice lattice;
+  /// `extract`: the level the extractor takes (r_outer for the distance field; 0 for the kernel
+  /// fields, whose samples are stored relative to their iso level).
+  Extractor extractor = Extractor::tiles;
+  float iso = 0;
+  /// `voids`, `blobs`: small closed components the smoothing would crush (mesh/voids.hpp).
+  bool remove_voids = false, remove_blobs = false;
+  double void_volume = 0, blob_min_volume = 0;
+  /// `reorder`: when any sweep runs (the sweeps run 2-4x faster on a Z-ordered mesh); `smooth`.
+  bool sweeps = false;
+  SmoothSchedule schedule;
+  bool ellipsoid_shells = false;  ///< anisotropic: the constraint shells are the particles' ellipsoids
+  bool velocity_weights = false;  ///< per-vertex damping from the transferred velocity
+  float r_inner = 0, r_outer = 0;
+  /// `erode`, `transfer`, `normals`.
+  bool erode = false;
+  float erode_distance = 0;
+  std::vector<std::string> transfer;
+  float transfer_radius = 0;
+};
+
+/// What a pipeline of either backend works from: the particles, the resolved parameters, their
+/// plan, the SPH volumes per original particle (empty: uniform d³) and the particles' velocity
+/// attribute (null without one).
+struct PipelineInput {
+  const ParticleSet& particles;
+  const Params& params;
+  const StagePlan& plan;
+  const std::vector<float>& volumes;
+  const Attribute* velocity;
+};
+
+/// The plan of resolved parameters `p` (resolve_params).
+inline StagePlan plan_stages(const Params& p) {
+  StagePlan s;
+  s.particles = particle_pass(p);
+  s.grid_cell = float(2 * p.r_outer);
+  s.field = p.field;
+  s.kernel_field = p.field != FieldMethod::distance;
+  s.distance_band = field_band(p);
+  s.lattice.kind = p.extract == Extractor::tiles ? SampleLattice::Kind::a15 : SampleLattice::Kind::cubic;
+  s.lattice.cell_size = float(p.extract == Extractor::tiles ? 2 * p.voxel_size : p.voxel_size);
+  s.extractor = p.extract;
+  s.iso = s.kernel_field ? 0.0f : float(p.r_outer);
+  s.remove_voids = !p.keep_voids;
+  s.remove_blobs = s.kernel_field;
+  s.void_volume = small_component_volume(p.spacing);
+  s.blob_min_volume = inner_ball_volume(p.r_inner);
+  s.sweeps = p.steps_a + p.steps_b + p.steps_free > 0;
+  s.schedule = smooth_schedule(p);
+  s.ellipsoid_shells = p.field == FieldMethod::anisotropic;
+  s.velocity_weights = p.velocity_weighted;
+  s.r_inner = float(p.r_inner);
+  s.r_outer = float(p.r_outer);
+  s.erode = p.erode > 0;
+  s.erode_distance = float(p.erode);
+  s.transfer = p.transfer;
+  s.transfer_radius = float(p.transfer_radius);
+  return s;
+}
+
+}  // namespace meniscus

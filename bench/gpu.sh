@@ -1,38 +1,71 @@
 #!/usr/bin/env bash
-# meniscus — build with CUDA (+ benchmarks), run the CUDA tests (device stages and CPU/GPU
-# parity) and the GPU benchmark at 100k, 1M and 10M particles. Needs nvcc and a CUDA device.
-#   bash bench/gpu.sh [BUILD_DIR]        (default build/gpu)
-set -euo pipefail
+# meniscus — what a machine with a CUDA device can tell us, in one command and one report file:
+#   1. the build with CUDA for this machine's GPU (and the benchmarks), on all cores;
+#   2. the cuda-labelled tests on the device (stages bit for bit against the CPU, parity on blocks
+#      and every real frame, field methods, fallback, the CLI with --backend cuda);
+#   3. compute-sanitizer memcheck, racecheck, initcheck and synccheck on the device stage tests;
+#   4. the GPU benchmark: per-stage device times and launch / round-trip counts at 100k, 1M and
+#      10M particles (warm: the second of two runs), the field methods at 1M;
+#   5. the same scenes on this machine's CPU backend.
+# Every section runs even when one fails; the report ends with a verdict per section, and the
+# script exits non-zero if any failed. About 8 minutes on an H100 with 16 cores.
+#   bash bench/gpu.sh OUT_DIR            writes OUT_DIR/gpu_report.txt (the build goes to build/gpu)
+set -uo pipefail
 cd "$(dirname "$0")/.."
-BUILD=${1:-build/gpu}
+OUT=${1:?usage: bash bench/gpu.sh OUT_DIR}
+mkdir -p "$OUT"
+REPORT="$OUT/gpu_report.txt"
+BUILD=${BUILD:-build/gpu}
 JOBS=${JOBS:-$(nproc)}
+: > "$REPORT"
+declare -a verdicts=()
 
-cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DMENISCUS_CUDA=ON -DMENISCUS_BUILD_BENCH=ON
-cmake --build "$BUILD" -j "$JOBS"
+section() {  # section NAME TIMEOUT_S COMMAND...: runs it, appends its output, records the verdict
+  local name=$1 limit=$2
+  shift 2
+  local start=$SECONDS
+  { echo; echo "=== $name"; echo "\$ $*"; } >> "$REPORT"
+  timeout "$limit" "$@" >> "$REPORT" 2>&1
+  local rc=$?
+  local line="$name: $([[ $rc == 0 ]] && echo ok || echo "FAILED (exit $rc)") in $((SECONDS - start)) s"
+  echo "$line" | tee -a "$REPORT"
+  verdicts+=("$line")
+}
 
-"$BUILD/meniscus" info
+{
+  echo "meniscus GPU report — $(date -u +%Y-%m-%dT%H:%M:%SZ), commit $(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
+  nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>&1 || true
+  echo "host: $(nproc) cores, $(lscpu 2>/dev/null | sed -n 's/^Model name: *//p')"
+  nvcc --version 2>&1 | tail -n 2 || true
+} >> "$REPORT"
 
-echo "== CUDA tests (backend dispatch, shared code, device stages, parity) =="
-"$BUILD/tests/meniscus_tests" --gtest_filter='SumTree*:MarchingTables*:Backend*:Cuda*:KernelField*' --gtest_color=no
-
-# Out-of-bounds and uninitialised device reads, on the small device tests, where the toolkit has
-# compute-sanitizer (most of the device code had never run when it was written).
 SANITIZER=$(command -v compute-sanitizer || ls /usr/local/cuda/bin/compute-sanitizer 2>/dev/null || true)
-if [ -n "$SANITIZER" ]; then
-  echo "== compute-sanitizer memcheck / initcheck on the device stage tests =="
-  "$SANITIZER" --tool memcheck --error-exitcode 1 "$BUILD/tests/meniscus_tests" --gtest_filter='CudaStages*:CudaParity.Extraction*:CudaParity.FieldMethods*' --gtest_color=no
-  "$SANITIZER" --tool initcheck --error-exitcode 1 "$BUILD/tests/meniscus_tests" --gtest_filter='CudaStages*' --gtest_color=no
+TESTS="$BUILD/tests/meniscus_cuda_tests"
+STAGE_TESTS='CudaStages*:CudaParity.ExtractionOnly*:CudaParity.TransferredAttributes*'
+
+section "build (CUDA for this GPU, benchmarks, $JOBS jobs)" 420 bash -c "
+  cmake -S . -B '$BUILD' -G Ninja -DCMAKE_BUILD_TYPE=Release -DMENISCUS_CUDA=ON -DCMAKE_CUDA_ARCHITECTURES=native \
+        -DMENISCUS_BUILD_BENCH=ON -DMENISCUS_PYTHON=OFF > /dev/null && cmake --build '$BUILD' -j $JOBS"
+section "meniscus info" 30 "$BUILD/meniscus" info
+section "cuda tests on the device (ctest -L cuda)" 300 ctest --test-dir "$BUILD" -L cuda --output-on-failure
+if [[ -n $SANITIZER ]]; then
+  for tool in memcheck racecheck initcheck synccheck; do
+    section "compute-sanitizer $tool (device stage tests)" 240 \
+      "$SANITIZER" --tool "$tool" --error-exitcode 1 "$TESTS" --gtest_filter="$STAGE_TESTS" --gtest_color=no
+  done
 else
-  echo "(compute-sanitizer not found: device memory checks skipped)"
+  section "compute-sanitizer" 5 bash -c 'echo "compute-sanitizer not found"; exit 1'
 fi
-
-echo "== GPU benchmark: jittered blocks, per-stage device times (CUDA events) =="
-"$BUILD/meniscus_bench_gpu" --backend cuda --counts "${COUNTS:-100000,1000000,10000000}"
-
-echo "== the field methods of issue #7 on the GPU (1M particles; anisotropic: centres, ellipsoids, ellipsoid constraints) =="
+section "GPU benchmark: blocks, 100k / 1M / 10M particles" 300 \
+  "$BUILD/meniscus_bench_gpu" --backend cuda --counts "${COUNTS:-100000,1000000,10000000}"
 for f in metaball sph zhu-bridson anisotropic; do
-  "$BUILD/meniscus_bench_gpu" --backend cuda --field "$f" --counts "${FIELD_COUNTS:-1000000}"
+  section "GPU benchmark: --field $f, 1M particles" 120 \
+    "$BUILD/meniscus_bench_gpu" --backend cuda --field "$f" --counts "${FIELD_COUNTS:-1000000}"
 done
+section "CPU backend on this machine: the same blocks" 300 \
+  "$BUILD/meniscus_bench_gpu" --backend cpu --counts "${CPU_COUNTS:-100000,1000000,10000000}"
 
-echo "== the same scenes on the CPU backend, for comparison (100k, 1M) =="
-"$BUILD/meniscus_bench_gpu" --backend cpu --counts "${CPU_COUNTS:-100000,1000000}"
+{ echo; echo "=== verdicts"; printf '%s\n' "${verdicts[@]}"; } >> "$REPORT"
+echo "report: $REPORT"
+for v in "${verdicts[@]}"; do [[ $v == *FAILED* ]] && exit 1; done
+exit 0

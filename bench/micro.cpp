@@ -63,9 +63,8 @@ void BM_ExtractTiles(benchmark::State& state) {
   state.SetLabel("items = field samples");
 }
 
-// The smoothing set-up's parts on the extracted mesh: the adjacency (rows and triangle lists),
-// the greedy colourings (distance 1: the A classes, 2: the B classes) and the cotangent
-// operator W, D, diag(B).
+// The smoothing set-up's parts on the extracted mesh: the adjacency (rows and triangle lists) and
+// the cotangent operator W, D, diag(B).
 void BM_Adjacency(benchmark::State& state) {
   const Fixture& f = Fixture::get();
   for (auto _ : state) {
@@ -76,22 +75,11 @@ void BM_Adjacency(benchmark::State& state) {
   state.SetLabel("items = vertices");
 }
 
-void BM_GreedyColours(benchmark::State& state) {
-  const Fixture& f = Fixture::get();
-  const Adjacency adj = build_adjacency(f.mesh.vertices.size(), f.mesh.triangles);
-  for (auto _ : state) {
-    std::vector<uint16_t> c = greedy_colors(adj, int(state.range(0)));
-    benchmark::DoNotOptimize(c.data());
-  }
-  state.SetItemsProcessed(state.iterations() * int64_t(f.mesh.vertices.size()));
-  state.SetLabel("items = vertices");
-}
-
 void BM_CotanOperator(benchmark::State& state) {
   const Fixture& f = Fixture::get();
   const Adjacency adj = build_adjacency(f.mesh.vertices.size(), f.mesh.triangles);
   for (auto _ : state) {
-    CotanOperator op = build_cotan_operator(f.mesh.vertices, f.mesh.triangles, adj);
+    CotanOperator op = build_cotan_operator(f.mesh.vertices, f.mesh.triangles, adj, 1e-6f * f.h * f.h);
     benchmark::DoNotOptimize(op.w.data());
   }
   state.SetItemsProcessed(state.iterations() * int64_t(f.mesh.vertices.size()));
@@ -99,7 +87,7 @@ void BM_CotanOperator(benchmark::State& state) {
 }
 
 // A few sweeps of each phase; items = vertex-iterations, so the rate extrapolates to the
-// default 20 + 15 + 3 schedule (the B run includes building the bilaplacian once).
+// default 20 + 10 + 3 schedule (the B run includes building the bilaplacian once).
 void BM_Smooth(benchmark::State& state) {
   const Fixture& f = Fixture::get();
   SmoothOptions o;
@@ -133,7 +121,6 @@ BENCHMARK(BM_HashGrid)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_DistanceField)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_ExtractTiles)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Adjacency)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK(BM_GreedyColours)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_CotanOperator)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Smooth)->Args({5, 0})->Args({0, 5})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_VertexNormals)->Unit(benchmark::kMillisecond)->UseRealTime();

@@ -103,6 +103,7 @@ const std::vector<Key>& keys() {
       MENISCUS_NUMBER_KEY(spacing),
       // Written by --stats; a replayed stats file gives the spacing itself, so this is ignored.
       Key{"spacing_estimated", [](Params&, std::string_view k, const json& v) { (void)as_bool(k, v); }},
+      Key{"estimated_on", [](Params&, std::string_view k, const json& v) { (void)as_string(k, v); }},
       MENISCUS_NUMBER_KEY(voxel_size),
       Key{"detail", [](Params& p, std::string_view k, const json& v) { apply_detail(p, as_number(k, v)); }},
       MENISCUS_NUMBER_KEY(r_inner),
@@ -125,6 +126,7 @@ const std::vector<Key>& keys() {
       Key{"field", [](Params& p, std::string_view k, const json& v) { p.field = parse_field(as_string(k, v)); }},
       MENISCUS_NUMBER_KEY(iso),
       MENISCUS_NUMBER_KEY(kernel_radius),
+      MENISCUS_NUMBER_KEY(rest_density),
       MENISCUS_NUMBER_KEY(smooth_particles),
       Key{"velocity_weighted", [](Params& p, std::string_view k, const json& v) { p.velocity_weighted = as_bool(k, v); }},
       MENISCUS_NUMBER_KEY(velocity_reference),
@@ -193,8 +195,8 @@ std::size_t line_of(const std::string& text, std::size_t index) {
 // Smoothness and presets.
 
 // Smoothness s scales the whole schedule linearly from nothing (s = 0: the mesh as extracted)
-// to twice the default (s = 1), so s = 0.5 is exactly the default 20 A + 15 B + 3 free sweeps.
-constexpr double kStepsAAtFull = 40, kStepsBAtFull = 30, kStepsFreeAtFull = 6;
+// to twice the default (s = 1), so s = 0.5 is exactly the default 20 A + 10 B + 3 free sweeps.
+constexpr double kStepsAAtFull = 40, kStepsBAtFull = 20, kStepsFreeAtFull = 6;
 
 // Every preset sets the same settings (so switching presets never leaves one behind); the
 // radii go back to "derive" (0) so that r_outer_factor decides. Measured on the jittered block,
@@ -208,7 +210,7 @@ struct Preset {
 constexpr Preset kPresets[] = {
     // Coarser than 0.6 and lone droplets collapse (detail 0.5: 9 % of their volume left).
     {"preview", 0.6, 1.0, 10, 5, 0},
-    {"production", 1.0, 1.0, 20, 15, 3},
+    {"production", 1.0, 1.0, 20, 10, 3},
     // r_outer 1.25 d bridges particles up to 2.5 d apart and makes a lone droplet one
     // particle's volume (r_inner 0.625 d); no free sweeps, so every vertex stays in its shell.
     {"droplets", 1.0, 1.25, 10, 20, 0},

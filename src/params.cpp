@@ -17,7 +17,7 @@ const char* to_string(Extractor e) {
   return "?";
 }
 
-const char* to_string(SmoothingSolver s) { return s == SmoothingSolver::jacobi ? "jacobi" : "gauss-seidel"; }
+const char* to_string(SmoothingSolver s) { return s == SmoothingSolver::jacobi ? "jacobi" : "chebyshev"; }
 
 Extractor parse_extractor(const std::string& name) {
   if (name == "tiles") return Extractor::tiles;
@@ -27,9 +27,12 @@ Extractor parse_extractor(const std::string& name) {
 }
 
 SmoothingSolver parse_solver(const std::string& name) {
+  if (name == "chebyshev") return SmoothingSolver::chebyshev;
   if (name == "jacobi") return SmoothingSolver::jacobi;
-  if (name == "gauss-seidel") return SmoothingSolver::gauss_seidel;
-  throw InvalidParameter(fmt::format("solver: unknown solver '{}' (expected jacobi or gauss-seidel)", name));
+  if (name == "gauss-seidel")
+    throw InvalidParameter("solver: gauss-seidel is gone: its colour order made every vertex depend on the whole frame; "
+                           "use chebyshev (the default: Jacobi sweeps accelerated as far, and local)");
+  throw InvalidParameter(fmt::format("solver: unknown solver '{}' (expected chebyshev or jacobi)", name));
 }
 
 const char* to_string(Backend b) {
@@ -95,15 +98,15 @@ void Params::validate() const {
   require(steps_a >= 0, "steps_a", steps_a, "must be ≥ 0");
   require(steps_b >= 0, "steps_b", steps_b, "must be ≥ 0");
   require(steps_free >= 0, "steps_free", steps_free, "must be ≥ 0");
-  require(std::isfinite(relax) && relax >= 0 && relax < 2, "relax", relax,
-          "must be in (0, 2) (above 1: over-relaxed Gauss–Seidel; 0 = derive)");
-  require(solver != SmoothingSolver::jacobi || relax <= 1, "relax", relax,
-          "must be at most 1 with the Jacobi solver, which diverges when over-relaxed (use --solver gauss-seidel)");
-  require(std::isfinite(relax_b) && relax_b > 0 && relax_b < 2, "relax_b", relax_b, "must be in (0, 2)");
+  require(std::isfinite(relax) && relax >= 0 && relax <= 1, "relax", relax,
+          "must be in (0, 1] (Jacobi sweeps diverge when over-relaxed; 0 = derive)");
+  require(std::isfinite(relax_b) && relax_b > 0 && relax_b <= 1, "relax_b", relax_b, "must be in (0, 1]");
   require(std::isfinite(iso) && iso >= 0, "iso", iso, "must be finite and ≥ 0 (0 = derive)");
   require(iso == 0 || field != FieldMethod::distance, "iso", iso,
           "applies to --field metaball, sph, zhu-bridson and anisotropic; the distance field's level is r_outer");
   length_param("kernel_radius", kernel_radius);
+  require(std::isfinite(rest_density) && rest_density >= 0, "rest_density", rest_density,
+          "must be finite and ≥ 0 (0 = the median of the frame's densities)");
   require(std::isfinite(smooth_particles) && (smooth_particles == -1 || (smooth_particles >= 0 && smooth_particles <= 1)),
           "smooth_particles", smooth_particles, "must be in [0, 1] (−1 = derive)");
   require(std::isfinite(velocity_reference) && velocity_reference >= 0, "velocity_reference", velocity_reference,

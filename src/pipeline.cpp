@@ -22,6 +22,7 @@
 #include "field/anisotropy.hpp"
 #include "field/distance_field.hpp"
 #include "field/kernel_field.hpp"
+#include "field/kernel_impl.hpp"
 #include "grid/hash_grid.hpp"
 #include "memory_scope.hpp"
 #include "mesh/voids.hpp"
@@ -30,6 +31,7 @@
 #include "meniscus/reconstruct.hpp"
 #include "extract/field_band.hpp"
 #include "mesh/vertex_order.hpp"
+#include "smooth/schedule.hpp"
 #include "smooth/smooth.hpp"
 #include "transfer/attribute_transfer.hpp"
 #include "transfer/normals.hpp"
@@ -121,21 +123,38 @@ const Attribute* find_attribute(const ParticleSet& particles, std::initializer_l
   return nullptr;
 }
 
-/// SPH volumes m_i/ρ_i per original particle (Müller et al. 2003): mass/density when the particles
-/// carry both, d³·median(ρ)/ρ_i with a density only (uniform mass), empty (uniform d³) otherwise.
-std::vector<float> particle_volumes(const ParticleSet& particles, double d) {
-  const Attribute* density = find_attribute(particles, {"density", "rho", "dens"}, 1);
-  if (!density) return {};
-  const Attribute* mass = find_attribute(particles, {"mass", "m"}, 1);
-  std::vector<float> rho = density->values;
+const Attribute* density_attribute(const ParticleSet& particles) {
+  return find_attribute(particles, {"density", "rho", "dens"}, 1);
+}
+const Attribute* mass_attribute(const ParticleSet& particles) { return find_attribute(particles, {"mass", "m"}, 1); }
+
+/// The median of the particles' positive densities (0 when none is positive).
+double median_density(const Attribute& density) {
+  std::vector<float> rho;
+  rho.reserve(density.values.size());
+  for (float r : density.values)
+    if (r > 0) rho.push_back(r);
+  if (rho.empty()) return 0;
   auto mid = rho.begin() + std::ptrdiff_t(rho.size() / 2);
   std::nth_element(rho.begin(), mid, rho.end());
-  const double rho0 = *mid;
-  if (!(rho0 > 0)) return {};
+  return double(*mid);
+}
+
+/// SPH volumes m_i/ρ_i per original particle (Müller et al. 2003): mass/density when the particles
+/// carry both, d³·ρ₀/ρ_i with a density only (uniform mass; ρ₀ = rest_density, resolved), empty
+/// (uniform d³) otherwise. Each volume is the particle's own: nothing frame-wide but ρ₀.
+std::vector<float> particle_volumes(const ParticleSet& particles, double d, double rho0) {
+  const Attribute* density = density_attribute(particles);
+  if (!density) return {};
+  const Attribute* mass = mass_attribute(particles);
+  if (!mass && !(rho0 > 0)) return {};
   std::vector<float> v(particles.size());
   for (std::size_t i = 0; i < v.size(); ++i) {
-    const double r = density->values[i] > 0 ? double(density->values[i]) : rho0;
-    v[i] = float(mass && mass->values[i] > 0 ? double(mass->values[i]) / r : d * d * d * rho0 / r);
+    const double r = double(density->values[i]);
+    if (mass && mass->values[i] > 0 && r > 0)
+      v[i] = float(double(mass->values[i]) / r);
+    else  // no mass, or a particle without a density: its volume at the rest density
+      v[i] = float(d * d * d * (rho0 > 0 && r > 0 ? rho0 / r : 1.0));
   }
   return v;
 }
@@ -232,9 +251,7 @@ Params resolve_params(const ParticleSet& particles, const Params& in) {
   if (p.r_outer == 0) p.r_outer = std::max(p.r_outer_factor * d, in.r_inner > 0 ? in.r_inner * 2 : 0.0);
   if (p.r_inner == 0) p.r_inner = 0.5 * p.r_outer;
   if (p.transfer_radius == 0) p.transfer_radius = 2 * d;
-  // Over-relaxed A sweeps: 20 at ω = 1.3 flatten the jittered block as 40 at ω = 1 did (README
-  // "Defaults and why"); Jacobi iterations diverge above ω = 1.
-  if (p.relax == 0) p.relax = p.solver == SmoothingSolver::gauss_seidel ? 1.3 : 1.0;
+  if (p.relax == 0) p.relax = 1.0;  // Jacobi sweeps diverge above 1; Chebyshev's weights accelerate them
   if (p.kernel_radius == 0 && p.field != FieldMethod::distance) p.kernel_radius = 2 * d;
   // Anisotropic: λ = 0.3, not Yu & Turk's 0.9. Their centre smoothing removes the bumps of the
   // raw positions, which the constrained smoothing does here anyway; 0.9 pulls the surface
@@ -251,9 +268,50 @@ Params resolve_params(const ParticleSet& particles, const Params& in) {
   if (p.field == FieldMethod::zhu_bridson && p.iso >= p.kernel_radius)
     throw InvalidParameter(fmt::format("iso = {:g}: the zhu-bridson radius must be smaller than kernel_radius ({:g})",
                                        p.iso, p.kernel_radius));
+  // The frame-wide estimates besides the spacing (resolve_frame_estimates).
+  if (p.rest_density == 0 && (p.field == FieldMethod::sph || p.field == FieldMethod::anisotropic) &&
+      !mass_attribute(particles))
+    if (const Attribute* density = density_attribute(particles)) p.rest_density = median_density(*density);
+  if (p.velocity_weighted && p.velocity_reference == 0)
+    if (const Attribute* velocity = find_attribute(particles, {"v", "vel", "velocity"}, 3))
+      p.velocity_reference = velocity_reference(*velocity);
   if (p.threads == 0) p.threads = tbb::info::default_concurrency();
   if (p.max_memory_gb == 0) p.max_memory_gb = 0.9 * physical_memory_gb();
   p.validate();
+  return p;
+}
+
+double local_reach(const Params& p) {
+  const double d = p.spacing, edge = longest_triangle_edge(p.extract, p.voxel_size);
+  const bool anisotropic = p.field == FieldMethod::anisotropic;
+  const AnisotropyConstants k;
+  // What an extracted vertex's position reads: the two samples of its lattice edge (within one
+  // edge of it), each the particles within r_outer or the kernels' support (anisotropic: R·σ̃₁ ≤
+  // R·k_max, each ellipsoid from its particle's neighbours within 2R), the centres smoothed over 2d.
+  double field = p.field == FieldMethod::distance ? p.r_outer : p.kernel_radius * (anisotropic ? k.k_max : 1.0);
+  if (anisotropic) field += 2 * p.kernel_radius;
+  if (anisotropic || p.smooth_particles > 0) field += 2 * d;
+  field += 2 * edge;
+  // What a projection reads: the (metric-)nearest particle, within r_outer (an ellipsoid's
+  // longest axis at most k_r^(2/3) times that) of where the vertex is, plus that ellipsoid's
+  // own reach; the velocity weights, the particles within the transfer radius. A vertex moves
+  // during the sweeps: kDrift allows 4 d (measured at most 2.9 d on every bundled frame with the
+  // default schedule, --field anisotropic and --extract cubes).
+  constexpr double kDrift = 4;
+  double projection = anisotropic ? p.r_outer * std::cbrt(double(k.k_r) * k.k_r) + 2 * p.kernel_radius + 2 * d : p.r_outer;
+  if (p.smooth_particles > 0 && !anisotropic) projection += 2 * d;
+  if (p.velocity_weighted) projection = std::max(projection, p.transfer_radius);
+  projection += kDrift * d;
+  const int rings = smoothing_rings(smooth_schedule(p)) + (p.erode > 0 ? 1 : 0);
+  return rings * edge + std::max(field, projection);
+}
+
+Params resolve_frame_estimates(const ParticleSet& particles, const Params& params) {
+  const Params resolved = resolve_params(particles, params);
+  Params p = params;
+  p.spacing = resolved.spacing;
+  p.rest_density = resolved.rest_density;
+  p.velocity_reference = resolved.velocity_reference;
   return p;
 }
 
@@ -414,7 +472,7 @@ class CpuPipeline {
   void reorder() {
     if (!plan_.sweeps) return;
     reuse_.end();  // the reordered mesh, which lives through the smoothing, gets its own mappings
-    timer_.run("reorder", [&] { reorder_vertices_spatially(mesh_); });
+    timer_.run("reorder", [&] { reorder_vertices_spatially(mesh_, plan_.lattice.cell_size); });
     reuse_.end();  // and the heap gives back the old mesh the reorder freed
   }
 
@@ -483,12 +541,10 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
   stats.particles = particles.size();
   stats.threads = p.threads;
   warn_about(p, stats);
-  // The velocity weighting's reference speed, when not given (both backends use it).
-  if (p.velocity_weighted && p.velocity_reference == 0) p.velocity_reference = velocity_reference(*velocity);
   result.params = p;
   // SPH volumes per original particle for the sph and anisotropic fields (empty: uniform d³).
   const std::vector<float> volumes = p.field == FieldMethod::sph || p.field == FieldMethod::anisotropic
-                                         ? particle_volumes(particles, p.spacing)
+                                         ? particle_volumes(particles, p.spacing, p.rest_density)
                                          : std::vector<float>{};
   const StagePlan plan = plan_stages(p);  // both backends run these stages
   const PipelineInput in{particles, p, plan, volumes, velocity};
@@ -537,8 +593,8 @@ std::string stats_to_json(const Result& result) {
   }
   j["smoothing"] = {{"energy_start", s.smoothing.energy_start},
                     {"energy_final", s.smoothing.energy_final},
-                    {"relax_halvings", s.smoothing.relax_halvings},
-                    {"relax_b_final", s.smoothing.relax_b_final},
+                    {"damped_vertices", s.smoothing.damped_vertices},
+                    {"relax_b_min", s.smoothing.relax_b_min},
                     {"batches", s.smoothing.batches},
                     {"setup_seconds", s.smoothing.setup_seconds},
                     {"a_sweeps_seconds", s.smoothing.a_sweeps_seconds},
@@ -546,6 +602,7 @@ std::string stats_to_json(const Result& result) {
   nlohmann::ordered_json q;
   q["spacing"] = p.spacing;
   q["spacing_estimated"] = s.spacing_estimated;
+  if (!s.estimated_on.empty()) q["estimated_on"] = s.estimated_on;
   q["voxel_size"] = p.voxel_size;
   q["detail"] = p.detail;
   q["r_inner"] = p.r_inner;
@@ -556,6 +613,7 @@ std::string stats_to_json(const Result& result) {
   q["field"] = to_string(p.field);
   q["iso"] = p.iso;
   q["kernel_radius"] = p.kernel_radius;
+  q["rest_density"] = p.rest_density;
   q["smooth_particles"] = p.smooth_particles;
   q["steps_a"] = p.steps_a;
   q["steps_b"] = p.steps_b;

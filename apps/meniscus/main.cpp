@@ -42,7 +42,7 @@ constexpr int kExitRuntime = 1;
 constexpr int kExitUsage = 2;
 
 struct SurfaceArgs {
-  std::string input, output, stats_path, preview_path, extract = "tiles", solver = "gauss-seidel", up = "z";
+  std::string input, output, stats_path, preview_path, extract = "tiles", solver = "chebyshev", up = "z";
   std::string backend = "auto";
   std::string field = "distance";
   std::string frames, field_path;
@@ -53,6 +53,7 @@ struct SurfaceArgs {
   // Artist controls (README "Artist controls"): config file < preset < smoothness/detail < options.
   std::string config_path, preset;
   std::optional<double> smoothness, detail;
+  std::string estimated_on;  ///< a sequence's frames: the frame whose estimates params holds
 };
 
 void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
@@ -77,10 +78,11 @@ void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
       ->capture_default_str();
   cmd.add_option("--steps-free", p.steps_free, "unconstrained bilaplacian sweeps at the end")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
-  cmd.add_option("--relax", p.relax, "relaxation ω of the A sweeps, in (0, 2); 0: 1.3 with gauss-seidel, 1 with jacobi")->capture_default_str();
-  cmd.add_option("--relax-b", p.relax_b, "initial damping of the B sweeps, in (0, 2)")->capture_default_str();
-  cmd.add_option("--solver", a.solver, "sweep type: gauss-seidel (coloured, in place) or jacobi")
-      ->check(CLI::IsMember({"gauss-seidel", "jacobi"}))->capture_default_str();
+  cmd.add_option("--relax", p.relax, "relaxation ω of the A sweeps, in (0, 1]; 0: 1")->capture_default_str();
+  cmd.add_option("--relax-b", p.relax_b, "largest damping of the B sweeps, in (0, 1]; each vertex takes at most its stable one")
+      ->capture_default_str();
+  cmd.add_option("--solver", a.solver, "sweeps: chebyshev (Jacobi, the A sweeps accelerated) or jacobi (plain)")
+      ->check(CLI::IsMember({"chebyshev", "jacobi", "gauss-seidel"}))->capture_default_str();
   cmd.add_option("--rebuild-b", p.rebuild_b, "rebuild the B operator every k sweeps (0: once)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   cmd.add_option("--extract", a.extract, "extractor: tiles (Marching Tiles), cubes, tetrahedra")
@@ -91,6 +93,10 @@ void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
                                   "value inside the fluid; zhu-bridson: particle radius, default r_outer)")
       ->check(CLI::PositiveNumber);
   cmd.add_option("--kernel-radius", p.kernel_radius, "support radius of the field kernels (default 2 d)")
+      ->check(CLI::PositiveNumber);
+  cmd.add_option("--rest-density", p.rest_density,
+                 "rest density ρ₀ of particles with a density but no mass (sph/anisotropic volumes d³·ρ₀/ρ; "
+                 "default: the median density of the frame, or of a sequence's first frame)")
       ->check(CLI::PositiveNumber);
   cmd.add_option("--smooth-particles", p.smooth_particles,
                  "λ in [0, 1]: Laplacian smoothing of the particle positions before the field (default 0; 0.3 with "
@@ -170,6 +176,7 @@ void apply_artist_controls(const CLI::App& cmd, SurfaceArgs& a) {
   take("--field", &Params::field);
   take("--iso", &Params::iso);
   take("--kernel-radius", &Params::kernel_radius);
+  take("--rest-density", &Params::rest_density);
   take("--smooth-particles", &Params::smooth_particles);
   take("--velocity-weighted", &Params::velocity_weighted);
   take("--velocity-reference", &Params::velocity_reference);
@@ -243,6 +250,10 @@ Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, cons
   }
   Result result = reconstruct(particles, a.params, progress);
   result.stats.stages.insert(result.stats.stages.begin(), StageTime{"read", read_seconds});
+  if (!a.estimated_on.empty()) {  // a sequence's frame: the estimates come from its first frame
+    result.stats.spacing_estimated = true;
+    result.stats.estimated_on = a.estimated_on;
+  }
 
   for (const std::string* out : {&f.output, &f.preview, &f.stats, &f.field})
     if (!out->empty()) make_parent_dirs(*out);
@@ -347,7 +358,8 @@ void add_flicker_to_stats(const std::string& path, int previous_frame, const Seq
 
 /// A sequence: every frame of the input pattern, in order, one progress bar; a failed frame is
 /// reported with its number and the others go on unless --fail-fast.
-int run_sequence(const SurfaceArgs& a, const FramePattern& in) {
+int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
+  SurfaceArgs a = given;
   const auto out = parse_frame_pattern(a.output);
   if (!out) throw InvalidParameter(fmt::format("output '{}' needs a frame placeholder (####, {{}} or %04d) like the input", a.output));
   std::optional<FramePattern> stats, preview, field;
@@ -359,6 +371,35 @@ int run_sequence(const SurfaceArgs& a, const FramePattern& in) {
   }
   const std::vector<int> frames = a.frames.empty() ? discover_frames(in) : parse_frame_ranges(a.frames);
   if (frames.empty()) throw InvalidParameter(fmt::format("no frames found for '{}' (give --frames)", a.input));
+
+  // The frame-wide estimates (spacing, rest density, reference speed) not given are made on the
+  // first frame and used for every frame: re-estimated per frame, a droplet appearing anywhere
+  // would move the whole surface.
+  const Params& gp = given.params;
+  if (gp.spacing == 0 || (gp.velocity_weighted && gp.velocity_reference == 0) ||
+      (gp.rest_density == 0 && (gp.field == FieldMethod::sph || gp.field == FieldMethod::anisotropic))) {
+    ReadOptions read_options;
+    read_options.drop_invalid = a.drop_invalid;
+    read_options.columns = a.columns;
+    std::size_t first = 0;  // the first frame that reads (a bad frame is reported with the others)
+    for (;; ++first) {
+      try {
+        a.params = resolve_frame_estimates(read_particles(in.format(frames[first]), read_options), gp);
+        break;
+      } catch (const std::exception&) {
+        if (first + 1 == frames.size()) throw;
+      }
+    }
+    a.estimated_on = in.format(frames[first]);
+    if (!a.quiet) {
+      std::string what = fmt::format("spacing {:.6g}", a.params.spacing);
+      if (a.params.rest_density != gp.rest_density) what += fmt::format(", rest density {:.6g}", a.params.rest_density);
+      if (a.params.velocity_reference != gp.velocity_reference)
+        what += fmt::format(", reference speed {:.6g}", a.params.velocity_reference);
+      fmt::print(stderr, "estimated on frame {} and used for every frame: {}{}\n", frames[first], what,
+                 gp.spacing == 0 ? " (set --spacing to override)" : "");
+    }
+  }
 
   const auto t0 = std::chrono::steady_clock::now();
   cli::ProgressBar bar(!a.quiet);

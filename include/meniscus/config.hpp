@@ -5,7 +5,7 @@
 // Keys are those of the "parameters" object that `--stats` writes (spacing, voxel_size, detail,
 // r_inner, r_outer, r_outer_factor, extract, keep_voids, steps_a, steps_b, steps_free, relax,
 // relax_b, solver, rebuild_b, erode, transfer, transfer_radius, threads, max_memory_gb;
-// "spacing_estimated" is accepted and ignored) plus the controls "preset" and "smoothness".
+// "spacing_estimated" and "estimated_on" are accepted and ignored) plus the controls "preset" and "smoothness".
 // '-' and '_' are interchangeable in keys. Value types: numbers for lengths and factors,
 // integers for counts (40.0 is accepted, 40.5 is not), booleans, strings for extract/solver/
 // preset, and for transfer an array of names or one comma-separated string.

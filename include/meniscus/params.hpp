@@ -9,7 +9,9 @@
 namespace meniscus {
 
 enum class Extractor { tiles, cubes, tetrahedra };
-enum class SmoothingSolver { jacobi, gauss_seidel };
+/// The smoothing sweeps (smooth/schedule.hpp): Jacobi sweeps, the A sweeps accelerated by
+/// Chebyshev's method (the default) or plain. Both are local: a vertex reads only its rings.
+enum class SmoothingSolver { chebyshev, jacobi };
 /// Where the pipeline runs: `automatic` uses the CUDA backend when it is built and a device is
 /// there (else the CPU, with a warning in Stats when CUDA was built but no device is usable).
 enum class Backend { automatic, cpu, cuda };
@@ -23,7 +25,8 @@ const char* to_string(FieldMethod f);
 FieldMethod parse_field(const std::string& name);
 /// Parses "tiles" | "cubes" | "tetrahedra"; throws InvalidParameter otherwise.
 Extractor parse_extractor(const std::string& name);
-/// Parses "jacobi" | "gauss-seidel"; throws InvalidParameter otherwise.
+/// Parses "chebyshev" | "jacobi"; throws InvalidParameter otherwise ("gauss-seidel", the former
+/// default, with a message naming its replacement).
 SmoothingSolver parse_solver(const std::string& name);
 const char* to_string(Backend b);
 /// Parses "auto" | "cpu" | "cuda"; throws InvalidParameter otherwise.
@@ -53,6 +56,10 @@ struct Params {
   /// Support radius R of the kernels (metaball, sph, zhu-bridson; for anisotropic the bulk
   /// support, the PCA neighbourhood being 2R as Yu & Turk's 2h); 0: 2 d. Unused by distance.
   double kernel_radius = 0;
+  /// The fluid's rest density ρ₀ for the SPH volumes of particles that carry a density but no
+  /// mass (sph and anisotropic fields): V_i = d³·ρ₀/ρ_i. 0: the median of the frame's densities,
+  /// a frame-wide estimate (a sequence takes it from its first frame, like the spacing).
+  double rest_density = 0;
   /// Laplacian smoothing of the particle positions before the field, x ← (1−λ)x + λ·(weighted
   /// mean of the neighbours within 2d, weights 1 − (r/2d)³); the constraints use the smoothed
   /// positions. −1: derive (0.3 for anisotropic, where it smooths Yu & Turk's kernel centres; 0 otherwise).
@@ -63,14 +70,12 @@ struct Params {
 
   // --- smoothing schedule (Williams 2008) -------------------------------------------------------
   int steps_a = 20;            ///< constrained graph-Laplacian (A) sweeps
-  int steps_b = 15;            ///< constrained bilaplacian (B) sweeps
+  int steps_b = 10;            ///< constrained bilaplacian (B) sweeps
   int steps_free = 3;          ///< unconstrained B sweeps at the end
-  /// Relaxation ω of the A sweeps, in (0, 2) with Gauss–Seidel (above 1: successive over-relaxation),
-  /// (0, 1] with Jacobi (which diverges above 1); 0: derive, 1.3 with Gauss–Seidel, 1 with Jacobi.
-  /// The B sweeps use the energy-guarded relax_b.
+  /// Relaxation ω of the A sweeps, in (0, 1] (Jacobi sweeps diverge above 1); 0: derive (1).
   double relax = 0;
-  double relax_b = 1.0;        ///< damping of the B sweeps (halved automatically when energy rises)
-  SmoothingSolver solver = SmoothingSolver::gauss_seidel;
+  double relax_b = 1.0;        ///< the largest damping of the B sweeps, in (0, 1]; each vertex's is at most its stable one
+  SmoothingSolver solver = SmoothingSolver::chebyshev;
   int rebuild_b = 0;           ///< rebuild the B operator every k sweeps; 0: build once after A
   /// Per-vertex smoothing strength from the particle speed (needs a velocity attribute: v, vel
   /// or velocity): vertex i's damping is ω·clamp(1 − speed_i / velocity_reference, velocity_min_weight, 1)

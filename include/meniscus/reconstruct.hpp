@@ -23,12 +23,12 @@ struct StageTime {
 struct SmoothingStats {
   double energy_start = 0;   ///< xᵀBx, the surface's bending energy, when the B sweeps start
   double energy_final = 0;   ///< and after the last one (same operator)
-  int relax_halvings = 0;    ///< B sweeps redone with half the damping because the energy rose
-  double relax_b_final = 0;  ///< the damping ω of the last B sweep (the smallest over the batches)
+  std::size_t damped_vertices = 0;  ///< vertices whose B damping the stability bound set below relax_b
+  double relax_b_min = 0;           ///< the smallest damping of any vertex's B sweeps
   std::size_t batches = 0;   ///< groups of whole components smoothed one after another (CPU backend)
   // Where the smoothing stage's time went (CPU backend; the CUDA backend reports 0 and times its
   // set-up as stages of its own):
-  double setup_seconds = 0;     ///< adjacency, colour classes, renumbering, particle lists, B operator
+  double setup_seconds = 0;     ///< adjacency, corner lists, particle lists, B operator
   double a_sweeps_seconds = 0;  ///< the constrained graph-Laplacian sweeps
   double b_sweeps_seconds = 0;  ///< the B sweeps, constrained and free (redone ones included)
 };
@@ -54,6 +54,9 @@ struct Stats {
   int threads = 0;
   std::string backend = "cpu";         ///< the backend that ran the stages: "cpu" or "cuda"
   bool spacing_estimated = false;
+  /// A sequence's frame: the file its frame-wide estimates (spacing, rest density, reference
+  /// speed) were made on, when they were not given; empty otherwise.
+  std::string estimated_on;
   SmoothingStats smoothing;
   std::vector<StageTime> stages;       ///< in pipeline order
   std::vector<DeviceStageCalls> device_calls;  ///< per stage, with the CUDA backend only
@@ -79,6 +82,24 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
 /// Fills in every derived (zero) parameter of `params` for these particles: spacing
 /// (estimate_spacing), voxel size, radii, transfer radius, threads; then validates.
 Params resolve_params(const ParticleSet& particles, const Params& params);
+
+/// R_local for resolved parameters `p`: every vertex's final position is a function of the
+/// particles within this distance of it, bit for bit (README "A local surface"). The smoothing
+/// sweeps are Jacobi sweeps: a vertex's final position depends on the extracted vertices within
+/// smoothing_rings() rings (one an A sweep, two a B sweep: 46 for the default schedule), each
+/// ring at most one triangle edge further (0.61 d for the tiles, 0.87 d for cubes); each of
+/// those vertices on the particles its field samples and its constraint projections read, and on
+/// nothing else (no colouring, no order, no sum over the frame). With the defaults 33.2 d.
+/// Frame-wide estimates (spacing, rest density, reference speed) must be given, as a sequence
+/// does after its first frame (resolve_frame_estimates).
+double local_reach(const Params& p);
+
+/// The frame-wide estimates among the derived parameters, resolved on these particles and the
+/// rest of `params` left as it is: the spacing, the rest density (sph and anisotropic fields with
+/// a density but no mass) and the velocity weighting's reference speed. Everything else the
+/// pipeline derives is local. A sequence resolves these on its first frame and uses them for
+/// every frame, so that a droplet appearing in one frame changes nothing far from it.
+Params resolve_frame_estimates(const ParticleSet& particles, const Params& params);
 
 /// The particle spacing: the larger of the median nearest-neighbour distance (exact for
 /// lattice-like sets) and the first quartile of the local density spacing

@@ -95,7 +95,7 @@ class DevicePipeline {
       stats_.removed_blobs = timer_.run("blobs", [&] {
         return remove_unsupported_blobs(mesh_, grid_, plan_.void_volume, plan_.blob_min_volume);
       });
-    if (plan_.sweeps) timer_.run("reorder", [&] { reorder_vertices_spatially(mesh_); });
+    if (plan_.sweeps) timer_.run("reorder", [&] { reorder_vertices_spatially(mesh_, plan_.lattice.cell_size); });
     adj_ = timer_.run("adjacency", [&] { return build_adjacency(mesh_); });
     smooth();
     if (plan_.erode)

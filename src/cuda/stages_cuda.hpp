@@ -164,7 +164,7 @@ std::size_t remove_small_voids(DeviceMesh& mesh, double max_volume);
 /// the number of components removed.
 std::size_t remove_unsupported_blobs(DeviceMesh& mesh, const DeviceGrid& grid, double max_volume, double min_volume);
 /// reorder_vertices_spatially() on the device: the same numbering as the CPU.
-void reorder_vertices_spatially(DeviceMesh& mesh);
+void reorder_vertices_spatially(DeviceMesh& mesh, float cell);
 
 DeviceAdjacency build_adjacency(const DeviceMesh& mesh);
 

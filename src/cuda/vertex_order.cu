@@ -11,9 +11,9 @@ namespace meniscus::cuda {
 
 namespace {
 
-__global__ void morton_kernel(const Vec3f* x, uint64_t n, Vec3f lo, float scale, uint32_t* keys, uint32_t* ids) {
+__global__ void morton_kernel(const Vec3f* x, uint64_t n, float inv_cell, uint32_t* keys, uint32_t* ids) {
   MENISCUS_GRID_STRIDE(i, n) {
-    keys[i] = morton_key(x[i], lo, scale);
+    keys[i] = morton_key(x[i], inv_cell);
     ids[i] = uint32_t(i);
   }
 }
@@ -51,15 +51,12 @@ __global__ void gather_triangles_kernel(const uint32_t* tris, const uint32_t* or
 
 }  // namespace
 
-void reorder_vertices_spatially(DeviceMesh& mesh) {
+void reorder_vertices_spatially(DeviceMesh& mesh, float cell) {
   const std::size_t nv = mesh.vertex_count, nt = mesh.triangle_count;
   if (nv < 2) return;
-  Vec3f lo, hi;  // exact min and max, so the CPU's box
-  point_bounds(mesh.vertices, uint32_t(nv), &lo, &hi);
-  const float scale = morton_scale(lo, hi);
 
   DeviceBuffer<uint32_t> keys(std::max(nv, nt)), ids(std::max(nv, nt)), new_of_old(nv);
-  MENISCUS_LAUNCH(morton_kernel, blocks_for(nv), 256)(mesh.vertices.data(), nv, lo, scale, keys.data(), ids.data());
+  MENISCUS_LAUNCH(morton_kernel, blocks_for(nv), 256)(mesh.vertices.data(), nv, 1.0f / cell, keys.data(), ids.data());
   MENISCUS_CUDA_CHECK(cudaGetLastError());
   sort_pairs(keys, ids, nv, 0, 30);  // stable: ties keep the old order, as on the CPU
   DeviceBuffer<Vec3f> sorted(nv);

@@ -36,6 +36,13 @@ inline double longest_extraction_edge(Extractor extract, double h) {
   return 2 * h;
 }
 
+/// The longest edge a triangle of the extracted mesh can have: a triangle lies inside one
+/// tetrahedron (tiles: its longest edge) or one cube (cubes and its Kuhn tetrahedra: the cube's
+/// diagonal √3·h).
+inline double longest_triangle_edge(Extractor extract, double h) {
+  return extract == Extractor::tiles ? longest_extraction_edge(extract, h) : h * std::sqrt(3.0);
+}
+
 /// The band of the field for these (resolved) parameters. The field must be exact wherever an
 /// extraction edge crosses φ = r_outer: both ends of such an edge are within r_outer + (edge
 /// length) of a particle, so the band needs only that much (beyond it every sample reads

@@ -3,7 +3,6 @@
 #include "mesh/vertex_order.hpp"
 
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <bit>
@@ -18,15 +17,6 @@ namespace meniscus {
 
 namespace {
 
-struct Box {
-  Vec3f lo{std::numeric_limits<float>::max(), std::numeric_limits<float>::max(), std::numeric_limits<float>::max()};
-  Vec3f hi{-std::numeric_limits<float>::max(), -std::numeric_limits<float>::max(), -std::numeric_limits<float>::max()};
-  void add(Vec3f p) {
-    lo = min(lo, p);
-    hi = max(hi, p);
-  }
-};
-
 /// values[i] = the old values[old_of_new(i)] for the n new indices i.
 template <class T, class OldOfNew>
 void permute(std::vector<T>& values, std::size_t n, OldOfNew&& old_of_new) {
@@ -40,26 +30,15 @@ void permute(std::vector<T>& values, std::size_t n, OldOfNew&& old_of_new) {
 
 }  // namespace
 
-void reorder_vertices_spatially(TriangleMesh& mesh) {
+void reorder_vertices_spatially(TriangleMesh& mesh, float cell) {
   const std::size_t nv = mesh.vertices.size();
   if (nv < 2) return;
   const std::vector<Vec3f>& x = mesh.vertices;
-  const Box box = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, nv, 4096), Box{},
-      [&](const auto& r, Box b) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) b.add(x[i]);
-        return b;
-      },
-      [](Box a, const Box& b) {
-        a.add(b.lo);
-        a.add(b.hi);
-        return a;
-      });
-  const float scale = morton_scale(box.lo, box.hi);
+  const float inv_cell = 1.0f / cell;
 
   // Key: 30 Morton bits above the 32-bit old index (the payload keeps the sort stable).
   std::vector<uint64_t> keys(nv);
-  tbb::parallel_for(std::size_t(0), nv, [&](std::size_t i) { keys[i] = uint64_t(morton_key(x[i], box.lo, scale)) << 32 | i; });
+  tbb::parallel_for(std::size_t(0), nv, [&](std::size_t i) { keys[i] = uint64_t(morton_key(x[i], inv_cell)) << 32 | i; });
   radix_sort(keys, 32, 62);
   // The sorted keys' payloads are the old indices in the new order: the permutation, without an
   // array of its own (on splash 1M the arrays of this function set the peak of the whole run).

@@ -8,10 +8,12 @@
 
 namespace meniscus {
 
-/// Renumbers the vertices in the Z-order of their positions on a 1024³ grid over the bounding
-/// box (ties keep the old order), and sorts the triangles by their smallest new vertex index.
-/// Geometry, orientation and connectivity are unchanged; normals and attributes, when present,
-/// move with their vertices. Deterministic and independent of the thread count.
-void reorder_vertices_spatially(TriangleMesh& mesh);
+/// Renumbers the vertices in the Z-order of their positions on the grid of cell `cell` anchored at
+/// the origin (morton_key: ties keep the old order), and sorts the triangles by their smallest new
+/// vertex index (ties keep their order). The relative order of two vertices, or of two triangles,
+/// depends on their own positions and old order alone, never on the rest of the frame. Geometry,
+/// orientation and connectivity are unchanged; normals and attributes, when present, move with
+/// their vertices. Deterministic and independent of the thread count.
+void reorder_vertices_spatially(TriangleMesh& mesh, float cell);
 
 }  // namespace meniscus

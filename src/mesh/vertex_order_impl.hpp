@@ -2,6 +2,7 @@
 // backends so both number the vertices identically (Morton 1966).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 #include "meniscus/vec.hpp"
@@ -18,23 +19,18 @@ MENISCUS_HD inline uint32_t morton_spread10(uint32_t v) {
   return x;
 }
 
-/// The 30-bit Z-order code of p on a 1024³ grid from `lo` with `scale` = 1023 / (largest extent).
-MENISCUS_HD inline uint32_t morton_key(Vec3f p, Vec3f lo, float scale) {
-  auto cell = [scale](float v, float l) {
-    float t = (v - l) * scale;
-    t = t < 0.0f ? 0.0f : (t > 1023.0f ? 1023.0f : t);
-    return uint32_t(t);
+/// The 30-bit Z-order code of p on the grid of cell `cell` anchored at the origin (1/cell given),
+/// each cell coordinate taken modulo 1024. A function of p alone — not of a bounding box — so two
+/// vertices keep their relative order whatever else is in the frame, and the sweeps, whose sums
+/// follow the numbering, stay local; a frame wider than 1024 cells interleaves its far-apart parts
+/// (in memory only: the order stays a function of the positions).
+MENISCUS_HD inline uint32_t morton_key(Vec3f p, float inv_cell) {
+  auto cell = [inv_cell](float v) {
+    float t = floorf(v * inv_cell);
+    t = t < -1e9f ? -1e9f : (t > 1e9f ? 1e9f : t);
+    return uint32_t(int32_t(t)) & 0x3FFu;
   };
-  return morton_spread10(cell(p.x, lo.x)) | morton_spread10(cell(p.y, lo.y)) << 1 |
-         morton_spread10(cell(p.z, lo.z)) << 2;
-}
-
-/// 1023 / the largest extent of the box [lo, hi] (0 for a point).
-MENISCUS_HD inline float morton_scale(Vec3f lo, Vec3f hi) {
-  float e = hi.x - lo.x;
-  e = hi.y - lo.y > e ? hi.y - lo.y : e;
-  e = hi.z - lo.z > e ? hi.z - lo.z : e;
-  return e > 0 ? 1023.0f / e : 0.0f;
+  return morton_spread10(cell(p.x)) | morton_spread10(cell(p.y)) << 1 | morton_spread10(cell(p.z)) << 2;
 }
 
 }  // namespace meniscus

@@ -1,5 +1,7 @@
-// meniscus — vertex adjacency of a triangle mesh in CSR form (neighbours distinct, no self),
-// plus vertex → incident-triangle lists and independent-set colourings for Gauss–Seidel.
+// meniscus — vertex adjacency of a triangle mesh in CSR form (neighbours distinct, no self), plus
+// vertex → incident-triangle lists. Rows and lists are ascending: a sum over a row adds its values
+// in the order of the vertex numbering, which is the same for every frame around a vertex
+// (reorder_vertices_spatially keys it on positions alone), so the sums are local too.
 #pragma once
 
 #include <cstdint>
@@ -16,12 +18,9 @@ namespace meniscus {
 struct Adjacency {
   // Filled in parallel, hence UninitVector (no serial zeroing first).
   UninitVector<uint32_t> offsets;      ///< #V+1: neighbours of i are neighbors[offsets[i] .. offsets[i+1])
-  UninitVector<uint32_t> neighbors;    ///< ascending within each row (renumber_adjacency: see there)
+  UninitVector<uint32_t> neighbors;    ///< ascending within each row
   UninitVector<uint32_t> tri_offsets;  ///< #V+1: incident triangles of i are tri_ids[tri_offsets[i] ..)
   UninitVector<uint32_t> tri_ids;
-  /// Empty, or the list of vertex i is list tri_row[i] (renumber_adjacency keeps the lists of the
-  /// original numbering instead of permuting them: tri_row = the permutation).
-  std::vector<uint32_t> tri_row;
   /// Empty, or (adopt_corner_lists) the triangle lists instead as the row slots of each incident
   /// triangle's other two corners: corners[corner_offsets[i] .. corner_offsets[i+1]) for vertex i.
   UninitVector<uint32_t> corner_offsets;
@@ -53,41 +52,14 @@ struct Adjacency {
 /// Builds the adjacency of `vertex_count` vertices from the triangles (parallel).
 Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> triangles);
 
-/// The adjacency of the same mesh with its vertices renumbered: new vertex n is old vertex
-/// order[n] (a permutation). Row n holds the relabelled entries of old row order[n] *in their old
-/// order*, so that a sum over a row adds the same values in the same order as before the
-/// renumbering (bit-identical results). The triangle lists (ids unchanged) are taken over as they
-/// are, with tri_row = order (composed with the adjacency's own tri_row, if any): permuting them
-/// would write a third of a gigabyte on splash 1M for the one pass that reads them
-/// (build_cotan_operator). Much cheaper than build_adjacency of the relabelled triangles, which it
-/// equals up to the order within rows. Corner lists (adopt_corner_lists) move with their rows: their
-/// slots stay valid, as the rows keep their order. Compact neighbour lists come out compact again,
-/// in the new numbering.
-Adjacency renumber_adjacency(Adjacency&& adjacency, std::vector<uint32_t> order);
-
-/// Replaces the triangle lists (tri_offsets, tri_ids, tri_row: freed) by corner lists, in the same
-/// order: for each incident triangle of a vertex, the slots of its other two corners in the
-/// vertex's row. The operator's build then needs neither the triangles nor a search of the row per
-/// corner, and the lists take 2 bytes a triangle corner instead of 4 plus the triangle's 12.
-/// `triangles` are the ones the lists index, in their own numbering; `rank` maps that numbering to
-/// the adjacency's (empty: the same). Returns false, changing nothing, when a row is longer than
-/// kMaxCornerRow (a slot must fit a byte).
-bool adopt_corner_lists(Adjacency& adjacency, std::span<const Triangle> triangles, std::span<const uint32_t> rank);
+/// Replaces the triangle lists (tri_offsets, tri_ids: freed) by corner lists, in the same order: for
+/// each incident triangle of a vertex, the slots of its other two corners in the vertex's row. The
+/// operator's build then needs neither the triangles nor a search of the row per corner, and the
+/// lists take 2 bytes a triangle corner instead of 4 plus the triangle's 12. `triangles` are the
+/// ones the lists index. Returns false, changing nothing, when a row is longer than kMaxCornerRow
+/// (a slot must fit a byte).
+bool adopt_corner_lists(Adjacency& adjacency, std::span<const Triangle> triangles);
 /// Whether every row is short enough for corner lists (kMaxCornerRow).
 bool corner_lists_fit(const Adjacency& adjacency);
-
-/// Vertices grouped into colour classes such that no two vertices of a class are within
-/// `distance` (1 or 2) edges of each other: vertices[offsets[c] .. offsets[c+1]) have colour c.
-struct Coloring {
-  std::vector<uint32_t> offsets;
-  std::vector<uint32_t> vertices;
-  std::size_t colors() const { return offsets.empty() ? 0 : offsets.size() - 1; }
-};
-/// Greedy colouring (deterministic: vertices in index order, smallest free colour).
-Coloring color_vertices(const Adjacency& adjacency, int distance);
-/// The colour of every vertex in color_vertices' colouring.
-std::vector<uint16_t> greedy_colors(const Adjacency& adjacency, int distance);
-/// The classes of per-vertex colours: vertices of each colour in ascending index order.
-Coloring group_by_color(std::span<const uint16_t> color);
 
 }  // namespace meniscus

@@ -60,9 +60,6 @@ template <int K, class Entry = CachedParticleList>
 class CachedParticleLists {
  public:
   static constexpr int kCapacity = K;
-  /// For vertices moved other than by projections since (the energy guard's undo): no vertex may
-  /// then be skipped by its slack until it is projected again.
-  void forget_slack() { std::fill(slack_.begin(), slack_.end(), -1.0f); }
   /// Hints the cache to load vertex i's slack and list (a few vertices before projecting it).
   void prefetch(uint32_t i) const {
     __builtin_prefetch(&slack_[i]);

@@ -16,18 +16,14 @@ namespace meniscus {
 
 namespace {
 
-/// Σ_k term(k) over [0, n) in the fixed tree of operators_impl.hpp, visiting k in the original
-/// numbering: term index rank[k] when `rank` is given (the vertices renumbered, rank: old → new).
+/// Σ_k term(k) over [0, n) in the fixed tree of operators_impl.hpp.
 template <class Term>
-double sum_in_tree(std::size_t n, std::span<const uint32_t> rank, Term&& term) {
+double sum_in_tree(std::size_t n, Term&& term) {
   const std::vector<std::size_t> leaves = sum_tree_leaves(n);
   std::vector<double> sums(leaves.size() - 1);
   tbb::parallel_for(std::size_t(0), sums.size(), [&](std::size_t l) {
     double s = 0.0;
-    if (rank.empty())
-      for (std::size_t k = leaves[l]; k < leaves[l + 1]; ++k) s += term(k);
-    else
-      for (std::size_t k = leaves[l]; k < leaves[l + 1]; ++k) s += term(rank[k]);
+    for (std::size_t k = leaves[l]; k < leaves[l + 1]; ++k) s += term(k);
     sums[l] = s;
   });
   std::size_t next = 0;
@@ -37,7 +33,7 @@ double sum_in_tree(std::size_t n, std::span<const uint32_t> rank, Term&& term) {
 }  // namespace
 
 CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Triangle> triangles,
-                                   const Adjacency& adj, std::span<const uint32_t> rank) {
+                                   const Adjacency& adj, float area_floor) {
   const std::size_t nv = adj.vertex_count();
   CotanOperator op;
   // Every entry is written below, first by the parallel passes (no serial zeroing).
@@ -62,16 +58,12 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
   } else {
     // (An adjacency is compacted only once it has corner lists.)
     const MeshRows rows{adj.offsets.data(), adj.neighbors.data(), adj.tri_offsets.data(), adj.tri_ids.data(),
-                        triangles.empty() ? nullptr : triangles.data()->data(),
-                        adj.tri_row.empty() ? nullptr : adj.tri_row.data()};
+                        triangles.empty() ? nullptr : triangles.data()->data()};
     for_each_row([&](uint32_t i, float* diag, float* area) { cotan_row(rows, x.data(), i, op.w.data(), diag, area); });
   }
-  // Vertices that collapsed onto a neighbour have no area; a floor relative to the mean area
-  // keeps D invertible without changing any healthy vertex.
-  // Summed in the fixed tree the CUDA backend uses too, so both get the same floor.
-  double mean_area = sum_in_tree(nv, rank, [&](std::size_t k) { return double(op.area[k]); });
-  mean_area /= double(std::max<std::size_t>(nv, 1));
-  const float area_floor = float(std::max(mean_area * 1e-6, 1e-30));
+  // Vertices that collapsed onto a neighbour have no area; a floor keeps D invertible without
+  // changing any healthy vertex. A constant of the parameters (from h), not of the mesh: a vertex's
+  // operator row depends on its ring alone.
   parallel_for_index(nv, 16384, [&](std::size_t i) { op.area[i] = std::max(op.area[i], area_floor); });
   return op;
 }
@@ -85,11 +77,10 @@ void apply_w(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3
   });
 }
 
-double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx, std::span<const uint32_t> rank) {
-  // Deterministic: the energy decides whether a sweep is redone with a smaller ω, so the same
-  // input must give the same sum whatever the thread scheduling.
-  // The CUDA backend sums in the same tree (operators_impl.hpp), so both take the same decisions.
-  return sum_in_tree(wx.size(), rank, [&](std::size_t k) { return energy_term(wx[k], op.area[k]); });
+double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx) {
+  // In the fixed tree the CUDA backend sums in too: the same value whatever the thread scheduling,
+  // on both backends (it is reported, and decides nothing).
+  return sum_in_tree(wx.size(), [&](std::size_t k) { return energy_term(wx[k], op.area[k]); });
 }
 
 Vec3f bilaplacian_row(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> x, uint32_t i) {

@@ -35,18 +35,16 @@ inline float b_diagonal(const Adjacency& adjacency, const CotanOperator& op, uin
 
 /// Builds W and D for the current positions (parallel over vertices, no atomics), from
 /// the adjacency's corner lists when it has them (`triangles` unused), else from its triangle lists
-/// of `triangles` (in the adjacency's numbering).
-/// `rank` (old → new index), for renumbered vertices: the floor on D comes from the mean area
-/// summed in the original numbering, as if they had not been renumbered.
+/// of `triangles`. D_i is at least `area_floor` (collapsed vertices).
 CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Triangle> triangles,
-                                   const Adjacency& adjacency, std::span<const uint32_t> rank = {});
+                                   const Adjacency& adjacency, float area_floor);
 
 /// y = W x.
 void apply_w(const Adjacency& adjacency, const CotanOperator& op, std::span<const Vec3f> x, std::span<Vec3f> y);
 
 /// Energy xᵀ B x = Σ_k |(W x)_k|² / D_k (given y = W x), summed in the fixed tree of
-/// operators_impl.hpp; in the original numbering of renumbered vertices given their `rank`.
-double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx, std::span<const uint32_t> rank = {});
+/// operators_impl.hpp.
+double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx);
 
 /// (B x)_i for one vertex given wx = W x: Σ_k W_ik / D_k (W x)_k over i and its ring; `neighbors`
 /// as Adjacency::with_neighbors gives them.

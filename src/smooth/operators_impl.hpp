@@ -1,7 +1,7 @@
 // meniscus — the per-vertex rows of the smoothing operators (Williams 2008 §4; Desbrun et al. 1999
 // for the cotangent form) over raw CSR arrays, written once for the CPU (operators.cpp, smooth.cpp)
-// and the CUDA backend, in the same order of float operations. Plus the fixed-tree double sum
-// that decides the B sweeps' energy guard on both backends.
+// and the CUDA backend, in the same order of float operations. Plus the fixed-tree double sum in
+// which both backends report the bending energy.
 #pragma once
 
 #include <cstddef>
@@ -14,15 +14,13 @@
 namespace meniscus {
 
 /// CSR rows of a mesh: neighbours of i at neighbors[offsets[i] .. offsets[i+1]) (distinct), incident
-/// triangles at tri_ids[tri_offsets[r] .. tri_offsets[r+1]) (ascending) with r = tri_row[i], or i
-/// when tri_row is null; triangles as index triples.
+/// triangles at tri_ids[tri_offsets[i] .. tri_offsets[i+1]) (ascending); triangles as index triples.
 struct MeshRows {
   const uint32_t* offsets;
   const uint32_t* neighbors;
   const uint32_t* tri_offsets;
   const uint32_t* tri_ids;
-  const uint32_t* triangles;          ///< 3 per triangle
-  const uint32_t* tri_row = nullptr;  ///< renumbered vertices: their lists' old index
+  const uint32_t* triangles;  ///< 3 per triangle
 };
 
 /// The row functions below read the neighbour of entry e of row i as neighbor_at(neighbors, i, e):
@@ -110,8 +108,8 @@ MENISCUS_HD inline void cotan_row_from(uint32_t row_begin, uint32_t row_end, uin
 }
 
 /// v's slot in row i, entries [row_begin .. row_end) of `neighbors` in either form (neighbor_at;
-/// six or seven entries, in any order — renumbered rows keep the order of the original numbering),
-/// kNoSlot when it is not there (the vertex itself, a corner repeated in a degenerate triangle).
+/// six or seven entries), kNoSlot when it is not there (the vertex itself, a corner repeated in a
+/// degenerate triangle).
 template <class Neighbors>
 MENISCUS_HD inline uint32_t row_slot(const Neighbors& neighbors, uint32_t i, uint32_t row_begin, uint32_t row_end,
                                      uint32_t v) {
@@ -131,9 +129,8 @@ MENISCUS_HD inline void corners_after(const uint32_t* t, uint32_t i, uint32_t* j
 /// reference for the corner lists below).
 MENISCUS_HD inline void cotan_row(const MeshRows& m, const Vec3f* x, uint32_t i, float* w, float* diag, float* area) {
   const uint32_t row_begin = m.offsets[i], row_end = m.offsets[i + 1];
-  const uint32_t r = m.tri_row != nullptr ? m.tri_row[i] : i;
-  const uint32_t first = m.tri_offsets[r];
-  cotan_row_from(row_begin, row_end, m.tri_offsets[r + 1] - first, [&](uint32_t k) {
+  const uint32_t first = m.tri_offsets[i];
+  cotan_row_from(row_begin, row_end, m.tri_offsets[i + 1] - first, [&](uint32_t k) {
     CotanCorners c;
     corners_after(m.triangles + 3 * std::size_t(m.tri_ids[first + k]), i, &c.j, &c.l);
     c.slot_j = row_slot(m.neighbors, i, row_begin, row_end, c.j);
@@ -209,12 +206,35 @@ MENISCUS_HD inline Vec3f bilaplacian_row_and_diagonal(const uint32_t* offsets, c
   *b_ii = bilaplacian_diagonal_or_one(b);
   return out;
 }
+/// The damping of vertex i's B sweeps, ω_i = min(relax_b, 0.9 · 2 B_ii / G_i) with G_i a bound on the
+/// absolute sum of row i of B (Σ_k |W_ik| / D_k · 2|W_kk| over i and its ring, ≥ Σ_j |B_ij|: the
+/// off-diagonal W_kj are ≥ 0, so Σ_j |W_kj| = 2|W_kk|). Jacobi sweeps x ← x − P⁻¹ B x with
+/// P = diag(B_ii / ω_i) converge when 2P − B is positive definite, which these rows guarantee by
+/// Gershgorin's theorem — so the B sweeps cannot diverge, and each vertex's damping depends on its
+/// two rings alone (on a regular mesh ω_i ≈ 0.52). `diag`: as w_diagonal takes it.
+template <class Neighbors>
+MENISCUS_HD inline float b_stable_damping(const uint32_t* offsets, const Neighbors& neighbors, const float* w,
+                                          const float* diag, const float* area, uint32_t i, float relax_b) {
+  const float d = w_diagonal(offsets, w, diag, i);
+  const float ad = d < 0 ? -d : d;
+  float b = d / area[i] * d, g = ad / area[i] * (2.0f * ad);
+  for (uint32_t e = offsets[i]; e < offsets[i + 1]; ++e) {
+    const uint32_t k = neighbor_at(neighbors, i, e);
+    const float wik = w[e], dk = w_diagonal(offsets, w, diag, k);
+    b += wik / area[k] * wik;
+    g += (wik < 0 ? -wik : wik) / area[k] * (2.0f * (dk < 0 ? -dk : dk));
+  }
+  b = bilaplacian_diagonal_or_one(b);
+  const float limit = 1.8f * b / g;
+  return g > 0 && limit < relax_b ? limit : relax_b;
+}
+
 /// One vertex's term of the energy xᵀBx = Σ_k |(W x)_k|² / D_k.
 MENISCUS_HD inline double energy_term(Vec3f wx, float area) { return double(length2(wx)) / double(area); }
 
 // --- the fixed summation tree ------------------------------------------------------------------
-// A sum whose value decides something (the energy guard halves ω when the energy rises) must come
-// out the same on both backends. The tree is the one of tbb::parallel_deterministic_reduce over
+// The energies the stats report (xᵀBx before and after the B sweeps; they decide nothing) come out
+// the same on both backends. The tree is the one of tbb::parallel_deterministic_reduce over
 // blocked_range(0, n, grain): a range larger than the grain splits at begin + (end − begin)/2;
 // a leaf is summed serially from 0; a node is left + right. The CPU sums the leaves in parallel,
 // the GPU one leaf per thread; both then combine the leaf sums with sum_tree_combine.

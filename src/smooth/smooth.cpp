@@ -6,9 +6,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <atomic>
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <cstdlib>
 
 #include "common/huge_pages.hpp"
 #include "common/parallel_index.hpp"
@@ -18,7 +20,6 @@
 #include "mesh/packed_triangles.hpp"
 #include "smooth/adjacency.hpp"
 #include "smooth/operators.hpp"
-#include "smooth/sweep_undo.hpp"
 
 namespace meniscus {
 
@@ -33,347 +34,111 @@ void for_each_vertex(std::size_t n, F&& f) {
   parallel_for_index(n, 1024, [&](std::size_t i) { f(uint32_t(i)); });
 }
 
-/// The sweeps' vertices in chunks of this many consecutive indices: SweepLayout sorts each chunk
-/// by class, and a sweep loads a chunk's ring data before it works there.
-inline constexpr std::size_t kSweepChunk = 4096;
-
-/// Hints the cache to load data[begin .. end).
-template <class T>
-void prefetch_range(const T* data, std::size_t begin, std::size_t end) {
-  const char* p = reinterpret_cast<const char*>(data + begin);
-  const char* const e = reinterpret_cast<const char*>(data + end);
-  for (; p < e; p += 64) __builtin_prefetch(p);
-}
-
-/// Colour classes as runs of consecutive vertices: class c is runs[offsets[c] .. offsets[c+1]),
-/// each run the vertices [first, second).
-struct ClassRuns {
-  std::vector<uint32_t> offsets;
-  std::vector<std::pair<uint32_t, uint32_t>> runs;
-  std::size_t colors() const { return offsets.empty() ? 0 : offsets.size() - 1; }
-};
-
-/// Runs f on every vertex, one colour class after another, in parallel within a class; calls
-/// prefetch a few vertices ahead, and prefetch_chunk(q) for the chunk q a run enters and the one
-/// after it. A class's vertices are a small part of each chunk, but their rings cover it: the data
-/// the rings read (positions, W x) would otherwise come in line by line at random within the
-/// chunk, a miss each — and the whole mesh streams through the cache between two classes, so it
-/// does so for every class. Prefetching the chunk (and the next, which the thread reaches while
-/// it loads) streams it in instead: 6–8 % off the splash 300k smoothing.
-template <class F, class P, class PC>
-void for_each_in_colors(const ClassRuns& classes, F&& f, P&& prefetch, PC&& prefetch_chunk) {
-  constexpr uint32_t kAhead = 8;
-  for (std::size_t c = 0; c < classes.colors(); ++c) {
-    tbb::parallel_for(tbb::blocked_range<uint32_t>(classes.offsets[c], classes.offsets[c + 1]), [&](const auto& r) {
-      std::size_t chunk = SIZE_MAX;
-      for (uint32_t k = r.begin(); k != r.end(); ++k) {
-        const auto [b, e] = classes.runs[k];
-        if (b / kSweepChunk != chunk) {
-          chunk = b / kSweepChunk;
-          prefetch_chunk(chunk);
-          prefetch_chunk(chunk + 1);
-        }
-        for (uint32_t i = b; i != e; ++i) {
-          if (i + kAhead < e) prefetch(i + kAhead);
-          f(i);
-        }
-      }
-    });
-  }
-}
-
 template <class Neighbors>
 Vec3f neighbour_mean(const Adjacency& adj, const Neighbors& neighbors, std::span<const Vec3f> x, uint32_t i) {
   return neighbour_mean_row(adj.offsets.data(), neighbors, x.data(), i);
 }
 
-/// Hints the cache to load entry e of the neighbour lists.
-inline void prefetch_entry(const uint32_t* neighbors, uint32_t e) { __builtin_prefetch(neighbors + e); }
-inline void prefetch_entry(const CompactNeighbors& neighbors, uint32_t e) { __builtin_prefetch(neighbors.delta + e); }
-
-double energy_of(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> x, std::vector<Vec3f>& scratch,
-                 std::span<const uint32_t> rank) {
-  resize_huge(scratch, x.size());
-  apply_w(adj, op, x, scratch);
-  return bilaplacian_energy(op, scratch, rank);
-}
-
-/// The Gauss-Seidel sweeps' classes and vertex numbering. The greedy colourings of the mesh's own
-/// (Z-order) numbering fix which vertices are updated together — the CUDA backend's classes. The
-/// sweeps then run on the vertices renumbered by (chunk of kSweepChunk original indices, B colour,
-/// A colour, original index): a class is a run of consecutive vertices in every chunk, so a sweep
-/// streams the per-vertex arrays of the vertices it updates (operator rows, particle lists, slack)
-/// where a class scattered over the whole range read a cache line of each array per vertex; and a
-/// chunk is still a patch of the surface, so the rings it reads stay in cache from one class to
-/// the next. The result is bit-identical: updates within a class are independent, the rows keep
-/// their entries in the original order (renumber_adjacency) and the sums over all vertices run in
-/// the original numbering (`rank`). On splash 300k the sweeps took about a tenth less.
-struct SweepLayout {
-  std::vector<uint32_t> order;  ///< new index → original index (empty: not renumbered; handed to the adjacency as tri_row)
-  std::vector<uint32_t> rank;   ///< original index → new index (empty: not renumbered)
-  ClassRuns a, b;               ///< the A (distance 1) and B (distance 2) classes, new numbering
-};
-
-/// The classes of `adj`, renumbered (or, with `renumber` false, in its own numbering: runs of one
-/// vertex mostly — for the tests that the renumbering changes nothing).
-SweepLayout sweep_layout(const Adjacency& adj, bool renumber) {
-  const std::size_t nv = adj.vertex_count();
-  // The two colourings are serial (the greedy order is the CUDA backend's): side by side.
-  std::vector<uint16_t> ca, cb;
-  tbb::parallel_invoke([&] { ca = greedy_colors(adj, 1); }, [&] { cb = greedy_colors(adj, 2); });
-  const std::size_t na = nv == 0 ? 1 : std::size_t(*std::max_element(ca.begin(), ca.end())) + 1;
-  const std::size_t nb = nv == 0 ? 1 : std::size_t(*std::max_element(cb.begin(), cb.end())) + 1;
-  SweepLayout layout;
-  if (renumber) {
-    // Each chunk sorted by (B colour, A colour, original index), in parallel: a counting sort on
-    // the colour pair, which keeps the index order within a pair (a comparison sort of the
-    // indices, reading both colours at every comparison, took 0.7 s of the set-up on splash 1M).
-    resize_huge(layout.order, nv);
-    resize_huge(layout.rank, nv);
-    tbb::parallel_for(std::size_t(0), (nv + kSweepChunk - 1) / kSweepChunk, [&](std::size_t q) {
-      const uint32_t b = uint32_t(q * kSweepChunk), e = uint32_t(std::min(nv, (q + 1) * kSweepChunk));
-      std::vector<uint32_t> start(na * nb + 1, 0);
-      for (uint32_t i = b; i < e; ++i) ++start[std::size_t(cb[i]) * na + ca[i] + 1];
-      for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
-      for (uint32_t i = b; i < e; ++i) {
-        const uint32_t n = b + start[std::size_t(cb[i]) * na + ca[i]]++;
-        layout.order[n] = i;
-        layout.rank[i] = n;
-      }
-    });
-  }
-  auto original = [&](uint32_t n) { return renumber ? layout.order[n] : n; };
-  // The runs: maximal ranges of one (chunk, colour), listed by colour, chunks in order.
-  auto runs_of = [&](const std::vector<uint16_t>& color, std::size_t colors) {
-    std::vector<std::vector<std::pair<uint32_t, uint32_t>>> by_color(colors);
-    for (uint32_t n = 0; n < nv;) {
-      const uint32_t i = original(n);
-      const std::size_t chunk = i / kSweepChunk;
-      const uint16_t c = color[i];
-      uint32_t e = n + 1;
-      while (e < nv && color[original(e)] == c && original(e) / kSweepChunk == chunk) ++e;
-      by_color[c].emplace_back(n, e);
-      n = e;
-    }
-    ClassRuns out;
-    out.offsets.assign(colors + 1, 0);
-    for (std::size_t c = 0; c < colors; ++c) {
-      out.offsets[c + 1] = out.offsets[c] + uint32_t(by_color[c].size());
-      out.runs.insert(out.runs.end(), by_color[c].begin(), by_color[c].end());
-    }
-    return out;
-  };
-  layout.a = runs_of(ca, na);
-  layout.b = runs_of(cb, nb);
-  return layout;
-}
-
-/// Renumbers the mesh (positions, and the triangle corners unless `triangles` is empty) by `rank`
-/// (old index → new) for the lifetime of the object, and back when it ends (also when the sweeps
-/// throw). Each direction allocates before it changes anything, so a failed allocation leaves the
-/// mesh as it was; the way back runs after the sweeps' arrays are freed (on return or unwinding),
-/// so its 16 bytes a vertex are there to take.
-class Renumbered {
- public:
-  Renumbered(std::vector<Vec3f>& x, std::span<Triangle> triangles, std::span<const uint32_t> rank)
-      : x_(x), triangles_(triangles), rank_(rank) {
-    std::vector<Vec3f> y = positions();
-    relabel(rank);
-    parallel_for_index(x_.size(), 4096, [&](std::size_t i) { y[rank_[i]] = x_[i]; });
-    x_.swap(y);
-  }
-  ~Renumbered() {
-    std::vector<Vec3f> y = positions();
-    std::vector<uint32_t> order(rank_.size());
-    parallel_for_index(rank_.size(), 4096, [&](std::size_t i) { order[rank_[i]] = uint32_t(i); });
-    relabel(order);
-    parallel_for_index(x_.size(), 4096, [&](std::size_t i) { y[i] = x_[rank_[i]]; });
-    x_.swap(y);
-  }
-  Renumbered(const Renumbered&) = delete;
-  Renumbered& operator=(const Renumbered&) = delete;
-
- private:
-  void relabel(std::span<const uint32_t> to) {
-    parallel_for_index(triangles_.size(), 4096, [&](std::size_t k) {
-      for (uint32_t& v : triangles_[k]) v = to[v];
-    });
-  }
-  /// Storage for the permuted positions (read at random by the sweeps: on huge pages).
-  std::vector<Vec3f> positions() const {
-    std::vector<Vec3f> y;
-    resize_huge(y, x_.size());
-    return y;
-  }
-  std::vector<Vec3f>& x_;
-  std::span<Triangle> triangles_;
-  std::span<const uint32_t> rank_;
-};
-
-/// The schedule; `project(i, from)` projects vertex i in place (when `constrained_any`), `from` being
-/// where the vertex was before the move (where its previous projection left it); `forget()` is
-/// called when the energy guard puts the vertices back where they were before a sweep. `adj` is the
-/// triangles' (its triangle or corner lists are freed once the operator is built); `triangles` may
-/// be empty when it has corner lists. Gauss-Seidel when
-/// `layout` is given (the classes, in the numbering of x and triangles), Jacobi otherwise.
+/// The schedule (smooth/schedule.hpp): Jacobi sweeps, every one reading only the previous
+/// iterate, so a vertex's result depends on its rings and its particles alone. `project(i, from)`
+/// projects vertex i in place (when `constrained_any`), `from` being where the vertex was before
+/// the move (where its previous projection left it). `adj` is the triangles' (its triangle or corner
+/// lists are freed once the operator is built); `triangles` may be empty when it has corner lists.
 /// `neighbors`: adj's neighbour lists as Adjacency::with_neighbors gives them.
-template <class Neighbors, class Project, class PrefetchConstraint, class Forget>
+template <class Neighbors, class Project>
 SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triangles, Adjacency& adj,
-                         const Neighbors& neighbors, const SweepLayout* layout,
-                         bool constrained_any, Project&& project_constraint,
-                         PrefetchConstraint&& prefetch_constraint, Forget&& forget,
+                         const Neighbors& neighbors, bool constrained_any, Project&& project_constraint,
                          const SmoothOptions& o, const std::function<void(double)>& progress) {
   SmoothReport report;
   const std::size_t nv = x.size();
   if (nv == 0 || o.steps_a + o.steps_b + o.steps_free == 0) return report;  // no sweep: no set-up either
   const bool weighted = o.vertex_relax.size() == nv;
   auto vertex_factor = [&](uint32_t i) { return weighted ? o.vertex_relax[i] : 1.0f; };
-  const bool gauss_seidel = layout != nullptr;
-  // The sums over all vertices (energy, mean area) run in the original numbering.
-  const std::span<const uint32_t> rank = gauss_seidel ? std::span<const uint32_t>(layout->rank) : std::span<const uint32_t>();
   const int total = o.steps_a + o.steps_b + o.steps_free;
   int done = 0;
   auto tick = [&] {
     ++done;
     if (progress && total > 0) progress(double(done) / total);
   };
-  auto project = [&](uint32_t i, Vec3f from) {
-    if (constrained_any) project_constraint(i, from);
-  };
-  auto prefetch = [&](uint32_t i) {
-    if (constrained_any) prefetch_constraint(i);
-    __builtin_prefetch(&x[i]);
-  };
-  // The vertex range of chunk q (empty past the last).
-  auto chunk_range = [&](std::size_t q) {
-    return std::pair(std::min(nv, q * kSweepChunk), std::min(nv, (q + 1) * kSweepChunk));
-  };
 
-  // Read at random by every sweep, as all the smoothing's per-vertex arrays: on huge pages.
-  std::vector<Vec3f> next, scratch;  // next: the Jacobi iterate only
-  if (!gauss_seidel) resize_huge(next, nv);
-
-  // --- A: constrained graph-Laplacian sweeps ---------------------------------------------------
+  // --- A: constrained graph-Laplacian sweeps, Chebyshev-accelerated ------------------------------
+  // x holds x⁽ˢ⁾, other x⁽ˢ⁻¹⁾, which only its own vertex reads: sweep s writes x⁽ˢ⁺¹⁾ there.
   const auto a_start = std::chrono::steady_clock::now();
   if (o.steps_a > 0) {
-    const float w = o.relax_a;
-    if (gauss_seidel) {
-      for (int s = 0; s < o.steps_a; ++s, tick()) {
-        for_each_in_colors(layout->a, [&](uint32_t i) {
-          const Vec3f from = x[i];
-          x[i] = from + (neighbour_mean(adj, neighbors, x, i) - from) * (w * vertex_factor(i));
-          project(i, from);
-        }, prefetch, [&](std::size_t q) {
-          const auto [b, e] = chunk_range(q);
-          prefetch_range(x.data(), b, e);
-        });
-      }
-    } else {
-      for (int s = 0; s < o.steps_a; ++s, tick()) {
-        for_each_vertex(nv, [&](uint32_t i) { next[i] = x[i] + (neighbour_mean(adj, neighbors, x, i) - x[i]) * (w * vertex_factor(i)); });
-        x.swap(next);  // next: where the vertices were
-        for_each_vertex(nv, [&](uint32_t i) { project(i, next[i]); });
-      }
+    std::vector<Vec3f> other;  // read at random with x by every sweep: on huge pages
+    resize_huge(other, nv);
+    parallel_for_index(nv, 4096, [&](std::size_t i) { other[i] = x[i]; });
+    float weight = 1.0f;
+    for (int s = 0; s < o.steps_a; ++s, tick()) {
+      weight = chebyshev_weight(s, o.steps_a, weight, o.solver);
+      for_each_vertex(nv, [&](uint32_t i) {
+        other[i] = a_sweep_position(x[i], neighbour_mean(adj, neighbors, x, i), other[i], o.relax_a, vertex_factor(i),
+                                    weight);
+      });
+      x.swap(other);  // other: where the vertices were, where their last projection left them
+      if (constrained_any) for_each_vertex(nv, [&](uint32_t i) { project_constraint(i, other[i]); });
     }
   }
-
   if (o.steps_a > 0) report.a_sweeps_seconds = seconds_since(a_start);
 
-  // --- B: bilaplacian sweeps, constrained then free -------------------------------------------
+  // --- B: bilaplacian sweeps, constrained then free, damped per vertex --------------------------
   const int steps_b = o.steps_b + o.steps_free;
   if (steps_b > 0) {
-    CotanOperator op = build_cotan_operator(x, triangles, adj, rank);
+    CotanOperator op = build_cotan_operator(x, triangles, adj, o.area_floor);
     const auto b_start = std::chrono::steady_clock::now();
     if (o.rebuild_b == 0) {
       // The triangle or corner lists only serve to build the operator: free them for the sweeps
-      // (16 bytes a vertex as corner lists, 32 as triangle lists with tri_row).
+      // (16 bytes a vertex as corner lists, 24 as triangle lists).
       // (swap with empty vectors: `= {}` would keep the capacity).
       UninitVector<uint32_t>().swap(adj.tri_offsets);
       UninitVector<uint32_t>().swap(adj.tri_ids);
-      std::vector<uint32_t>().swap(adj.tri_row);
       UninitVector<uint32_t>().swap(adj.corner_offsets);
       UninitVector<CornerSlots>().swap(adj.corners);
       give_back_free_heap_pages();  // as at the end of the set-up
     }
-    float w = o.relax_b;
-    double energy = energy_of(adj, op, x, scratch, rank);
-    report.energy_start = energy;
-    // Where the sweep started, for the guard's undo: Gauss-Seidel moves each vertex once and
-    // records the move (SweepUndo, 6 bytes a vertex); Jacobi keeps a copy.
-    SweepUndo undo;
-    std::vector<Vec3f> backup;
-    if (!gauss_seidel) reserve_huge(backup, nv);
-    for (int s = 0; s < steps_b; ++s) {
+    // wx = W x of the current iterate; omega[i] vertex i's damping (b_stable_damping), set with
+    // the operator.
+    std::vector<Vec3f> wx;
+    std::vector<float> omega;
+    resize_huge(wx, nv);
+    resize_huge(omega, nv);
+    auto set_damping = [&] {
+      std::atomic<std::size_t> damped{0};
+      for_each_vertex(nv, [&](uint32_t i) {
+        omega[i] = b_stable_damping(adj.offsets.data(), neighbors, op.w.data(), nullptr, op.area.data(), i, o.relax_b);
+        if (omega[i] < o.relax_b) damped.fetch_add(1, std::memory_order_relaxed);
+      });
+      report.damped_vertices = damped.load();
+    };
+    auto update_wx = [&] {
+      for_each_vertex(nv, [&](uint32_t i) { wx[i] = apply_w_row(adj.offsets.data(), neighbors, op.w.data(), nullptr, x.data(), i); });
+    };
+    set_damping();
+    update_wx();
+    report.energy_start = bilaplacian_energy(op, wx);
+    for (int s = 0; s < steps_b; ++s, tick()) {
       const bool constrained = s < o.steps_b && constrained_any;
       if (o.rebuild_b > 0 && s > 0 && s % o.rebuild_b == 0) {
-        op = build_cotan_operator(x, triangles, adj, rank);
-        energy = energy_of(adj, op, x, scratch, rank);
+        op = build_cotan_operator(x, triangles, adj, o.area_floor);
+        set_damping();
+        update_wx();
       }
-      if (gauss_seidel) {
-        undo.begin(nv);
-        // scratch = W x (energy_of computed it for the current x) is kept current as vertices
-        // move: (B x)_i needs only the W x of i's ring, and a move of x_i changes only the W x
-        // of that ring — no two vertices of a distance-2 colour class share a ring vertex.
-        for_each_in_colors(layout->b, [&](uint32_t i) {
-          const Vec3f before = x[i];
-          const float w_ii = w_diagonal(adj, op, i);
-          float b_ii;
-          const Vec3f bx = bilaplacian_row_and_diagonal(adj.offsets.data(), neighbors, op.w.data(), w_ii,
-                                                        op.area.data(), scratch.data(), i, &b_ii);
-          x[i] -= bx * (w * vertex_factor(i) / b_ii);
-          if (constrained) project(i, before);
-          undo.record(i, before, x[i]);
-          const Vec3f delta = x[i] - before;
-          scratch[i] += delta * w_ii;
-          for (uint32_t e = adj.offsets[i]; e < adj.offsets[i + 1]; ++e)
-            scratch[neighbor_at(neighbors, i, e)] += delta * op.w[e];
-        }, [&](uint32_t i) {
-          prefetch(i);
-          __builtin_prefetch(&scratch[i]);
-          prefetch_entry(neighbors, adj.offsets[i]);
-        }, [&](std::size_t q) {
-          const auto [b, e] = chunk_range(q);
-          prefetch_range(scratch.data(), b, e);
-          prefetch_range(op.area.data(), b, e);
-          prefetch_range(x.data(), b, e);
-        });
-      } else {
-        backup = x;
-        // scratch = W x was computed by energy_of for the current x.
-        std::vector<Vec3f> z(nv);
-        for_each_vertex(nv, [&](uint32_t i) { z[i] = scratch[i] / op.area[i]; });
-        apply_w(adj, op, z, next);  // next = B x
-        for_each_vertex(nv, [&](uint32_t i) {
-          const Vec3f from = x[i];
-          x[i] -= next[i] * (w * vertex_factor(i) /
-                             bilaplacian_diagonal_row(adj.offsets.data(), neighbors, op.w.data(), nullptr,
-                                                      op.area.data(), i));
-          if (constrained) project(i, from);
-        });
-      }
-      // Gauss-Seidel kept scratch = W x current through the sweep: the energy needs no second pass
-      // over the mesh (the CUDA backend does the same, so both sum the same values).
-      const double e = gauss_seidel ? bilaplacian_energy(op, scratch, rank) : energy_of(adj, op, x, scratch, rank);
-      // A free sweep of a convergent solver never raises xᵀBx; a constrained one may a little
-      // (the projection is not a descent step), but a large rise means the sweep diverges.
-      const double tolerance = constrained ? 0.05 : 1e-4;
-      if (e > energy * (1.0 + tolerance) && w > 1.0f / 64) {
-        if (gauss_seidel)
-          undo.undo(x);
-        else
-          x.swap(backup);
-        if (constrained_any) forget();
-        w *= 0.5f;
-        ++report.relax_halvings;
-        energy_of(adj, op, x, scratch, rank);
-        --s;  // redo this sweep with the smaller ω
-        continue;
-      }
-      energy = e;
-      tick();
+      // Every vertex moves from (W x) of its ring, which no move of this sweep changes.
+      for_each_vertex(nv, [&](uint32_t i) {
+        const Vec3f from = x[i];
+        const float w_ii = w_diagonal(adj, op, i);
+        float b_ii;
+        const Vec3f bx = bilaplacian_row_and_diagonal(adj.offsets.data(), neighbors, op.w.data(), w_ii, op.area.data(),
+                                                      wx.data(), i, &b_ii);
+        x[i] -= bx * (omega[i] * vertex_factor(i) / b_ii);
+        if (constrained) project_constraint(i, from);
+      });
+      update_wx();
     }
-    report.energy_final = energy;
-    report.relax_b_final = w;
+    report.energy_final = bilaplacian_energy(op, wx);
+    float least = o.relax_b;
+    for (float w : omega) least = std::min(least, w);
+    report.relax_b_min = least;
     report.b_sweeps_seconds = seconds_since(b_start);
   }
   return report;
@@ -404,52 +169,27 @@ class TrianglesPackedAway {
 };
 
 /// The schedule with constraint `c` (null: none) projected through a Cache (NeighbourCache,
-/// EllipsoidCache); Gauss-Seidel in the SweepLayout numbering. The operator is built from corner
-/// lists (adopt_corner_lists), so the triangles are not read during the sweeps: they wait packed,
-/// in their own numbering (about 7 bytes a vertex instead of 24), and are neither renumbered nor
-/// numbered back. Only a mesh with a row too long for the corner lists keeps its triangles, and
-/// has them renumbered with the positions.
+/// EllipsoidCache). The operator is built from corner lists (adopt_corner_lists), so the triangles
+/// are not read during the sweeps: they wait packed (about 7 bytes a vertex instead of 24). Only a
+/// mesh with a row too long for the corner lists keeps its triangles.
 template <class Cache, class Constraint>
 SmoothReport smooth_cached(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, const Constraint* constraint,
                            const SmoothOptions& o, const std::function<void(double)>& progress) {
   if (x.empty() || o.steps_a + o.steps_b + o.steps_free == 0) return {};
-  const bool gauss_seidel = o.solver == SmoothingSolver::gauss_seidel;
-  const bool renumber = gauss_seidel && o.renumber;
-  SweepLayout layout;
-  std::optional<Renumbered> renumbered;
-  TrianglesPackedAway packed(triangles);  // destroyed after the sweeps' arrays, before renumbered
-  SmoothOptions options = o;
-  std::vector<float> relax;
+  TrianglesPackedAway packed(triangles);
   SmoothReport report;
   {
     Adjacency adj = build_adjacency(x.size(), triangles);
     // With corner lists, the sweeps read the rows only through them and the row functions: 2 bytes
-    // an entry will do (the adjacency's largest array; 12 bytes a vertex less). Compacted at once,
-    // in the mesh's numbering (Z-order: as near as the sweeps'), so that the set-up's peak — the
-    // triangles, their lists, the rows and the new corner lists side by side — holds them small.
+    // an entry will do (the adjacency's largest array; 12 bytes a vertex less).
     const bool corners = corner_lists_fit(adj);
     if (corners && o.compact_neighbors) adj.compact_neighbors();
-    if (gauss_seidel) layout = sweep_layout(adj, o.renumber);
-    // The corner lists first, in the mesh's numbering (a renumbering moves them with their rows):
-    // the triangles and their lists are then done with before the rows are renumbered, which
-    // holds two copies of the rows for a moment (the set-up's peak had been there).
     if (corners) {
-      adopt_corner_lists(adj, triangles, {});  // (the rows fit: it adopts them)
+      adopt_corner_lists(adj, triangles);
       packed.pack();
     }
-    if (renumber) {
-      if (o.vertex_relax.size() == x.size()) {
-        relax.resize(x.size());
-        for (std::size_t n = 0; n < x.size(); ++n) relax[n] = o.vertex_relax[layout.order[n]];
-        options.vertex_relax = relax;
-      }
-      // Without corner lists the order becomes the adjacency's tri_row (the sweeps need only rank).
-      adj = renumber_adjacency(std::move(adj), std::move(layout.order));
-    }
-    if (renumber) renumbered.emplace(x, corners ? std::span<Triangle>() : std::span<Triangle>(triangles), layout.rank);
-    // The set-up freed the triangles, their lists and the rows and positions in the old numbering;
-    // where they sat in the heap (glibc serves a large block from a free one that fits, mapped
-    // or not) they would stay resident beside the sweeps' new arrays: ~8 MB of block 1M's peak.
+    // The set-up freed the triangles' lists; where they sat in the heap they would stay resident
+    // beside the sweeps' new arrays.
     give_back_free_heap_pages();
     // Vertices move little per sweep: each keeps a list of its nearby particles, refreshed only
     // when the vertex has moved too far from where the list was made.
@@ -457,13 +197,12 @@ SmoothReport smooth_cached(std::vector<Vec3f>& x, std::vector<Triangle>& triangl
     if (constraint) cache.build(*constraint, x);
     report = adj.with_neighbors([&](const auto& neighbors) {
       return smooth_with(
-          x, triangles, adj, neighbors, gauss_seidel ? &layout : nullptr, constraint != nullptr,
-          [&](uint32_t i, Vec3f from) { x[i] = cache.project(*constraint, i, x[i], from); },
-          [&](uint32_t i) { cache.prefetch(i); }, [&] { cache.forget_slack(); }, options, progress);
+          x, triangles, adj, neighbors, constraint != nullptr,
+          [&](uint32_t i, Vec3f from) { x[i] = cache.project(*constraint, i, x[i], from); }, o, progress);
     });
   }  // the adjacency, operator lists and particle lists freed: room for the triangles
   packed.restore();
-  return report;  // renumbered maps the positions back
+  return report;
 }
 
 /// The indices i in [0, n) for which keep(i), ascending (mesh/compact.hpp's parallel count and
@@ -521,13 +260,12 @@ ComponentBatches component_batches(std::size_t nv, std::span<const Triangle> tri
 }
 
 /// smooth_cached on batches of whole components (SmoothOptions::batch_vertices), one after another:
-/// the sweeps' arrays (about 115 bytes a vertex) are held for one batch at a time, beside the
-/// mesh's positions and packed triangles (PackedTriangles: ~7 bytes a vertex instead of 24; each
-/// batch decodes its own), a batch number and a batch index a vertex, and the batch's own copy of
-/// its vertices and triangles. Components do not interact in the sweeps, and a batch numbers its
-/// vertices in the mesh's order, which gives the same colour classes: the positions are those of
-/// one call on the whole mesh, except where the energy guard halves ω (per batch here) or the
-/// floor on the vertex areas (relative to the batch's mean area) applies.
+/// the sweeps' arrays are held for one batch at a time, beside the mesh's positions and packed
+/// triangles (PackedTriangles: ~7 bytes a vertex instead of 24; each batch decodes its own), a
+/// batch number and a batch index a vertex, and the batch's own copy of its vertices and triangles.
+/// Components do not interact in the sweeps, every decision of the sweeps is a vertex's own, and a
+/// batch numbers its vertices in the mesh's order: the positions are those of one call on the
+/// whole mesh, bit for bit.
 template <class Cache, class Constraint>
 SmoothReport smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, const Constraint* constraint,
                             const SmoothOptions& o, const std::function<void(double)>& progress) {
@@ -573,7 +311,7 @@ SmoothReport smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& triang
   });
   SmoothReport total;
   total.batches = batches.count;
-  total.relax_b_final = std::numeric_limits<double>::infinity();
+  total.relax_b_min = std::numeric_limits<double>::infinity();
   std::vector<uint32_t> local;  // a vertex's index in its batch
   resize_huge(local, nv);
   std::size_t done = 0;
@@ -602,8 +340,8 @@ SmoothReport smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& triang
     done += vertices.size();
     total.energy_start += r.energy_start;
     total.energy_final += r.energy_final;
-    total.relax_halvings += r.relax_halvings;
-    total.relax_b_final = std::min(total.relax_b_final, r.relax_b_final);
+    total.damped_vertices += r.damped_vertices;
+    total.relax_b_min = std::min(total.relax_b_min, r.relax_b_min);
     total.a_sweeps_seconds += r.a_sweeps_seconds;
     total.b_sweeps_seconds += r.b_sweeps_seconds;
   }

@@ -19,29 +19,23 @@ namespace meniscus {
 struct SmoothOptions : SmoothSchedule {
   /// Per-vertex factor in (0, 1] on the damping of every sweep (velocity weighting); empty: 1.
   std::span<const float> vertex_relax;
-  /// Gauss-Seidel: run the sweeps on the vertices renumbered class by class (smooth.cpp,
-  /// SweepLayout) — the same result, faster; false only to test that it is the same.
-  bool renumber = true;
   /// The sweeps read the neighbour lists in 16 bits an entry (smooth/compact_neighbors.hpp) — the
   /// same result, 12 bytes a vertex less; false only to test that it is the same.
   bool compact_neighbors = true;
   /// The sweeps run on groups of whole connected components, one group after another, each of
   /// about this many vertices (a component larger than that is a group of its own); 0: an eighth
   /// of the mesh, or the whole mesh at once where one component holds over 3/4 of it (groups then
-  /// need more memory than the whole, see smooth.cpp). Components do not interact in the sweeps,
-  /// so the result is the same, except that the energy guard halves ω of a group that diverges,
-  /// not of the whole mesh, and the floor on collapsed vertices' areas is relative to the group's
-  /// mean area; only one group's arrays are held at a time. SIZE_MAX: the whole mesh at once.
+  /// need more memory than the whole, see smooth.cpp). Components do not interact in the sweeps
+  /// and every decision of the sweeps is a vertex's own, so the result is the same bit for bit;
+  /// only one group's arrays are held at a time. SIZE_MAX: the whole mesh at once.
   std::size_t batch_vertices = 0;
 };
 
 /// Runs the schedule on `x` (in place). `constraint` may be null (no projection at all).
 /// `progress` receives the completed fraction of all sweeps. Each group of components (above) is
 /// smoothed on its own copy of its vertices and triangles, or, as one group, on `x` and
-/// `triangles` themselves, where the Gauss-Seidel sweeps renumber the vertices for the duration of
-/// the call. Either way the triangles are held packed meanwhile (the vector is empty during the
-/// call; a whole-mesh group with a vertex of over kMaxCornerRow neighbours keeps them, renumbered);
-/// both come back in their own numbering.
+/// `triangles` themselves. Either way the triangles are held packed meanwhile (the vector is empty
+/// during the call; a whole-mesh group with a vertex of over kMaxCornerRow neighbours keeps them).
 SmoothReport smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles,
                             const ShellConstraint* constraint, const SmoothOptions& options,
                             const std::function<void(double)>& progress = {});

@@ -20,6 +20,7 @@
 #include "meniscus/io.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "support/io_helpers.hpp"
+#include "support/locality.hpp"
 #include "support/test_support.hpp"
 
 #if defined(MENISCUS_HAS_CUDA)
@@ -99,7 +100,7 @@ TEST(CudaParity, ExtractionOnlyGivesTheSameMesh) {
 
 TEST(CudaParity, FullScheduleOnJitteredBlocksBothSolvers) {
   MENISCUS_REQUIRE_CUDA_DEVICE();
-  for (SmoothingSolver s : {SmoothingSolver::gauss_seidel, SmoothingSolver::jacobi}) {
+  for (SmoothingSolver s : {SmoothingSolver::chebyshev, SmoothingSolver::jacobi}) {
     Params p;
     p.spacing = 0.1;
     p.solver = s;
@@ -419,6 +420,43 @@ TEST_P(CudaParityFrame, ExtractionIsBitIdenticalAndTheFullScheduleMatches) {
   p = Params{};
   p.spacing = estimate_spacing(ps);
   expect_parity(compare_backends(ps, p), p.spacing / 2);
+}
+
+// --- locality (README "A local surface"), as tests/e2e/test_locality.cpp on the CPU -------------
+
+// The largest real frame that holds vertices beyond R_local of a change at each of its ends (the
+// CPU covers every frame; the two backends' meshes agree on all of them, CudaParityFrame); the
+// default schedule, --field anisotropic and --extract cubes.
+TEST(CudaLocality, ChangesFartherThanRLocalMoveNoVertexOfARealFrame) {
+  MENISCUS_REQUIRE_CUDA_DEVICE();
+  for (const char* file : {"dam_break_frame_23_24389_particles.ply"}) {
+    const ParticleSet base = read_particles(test::data_file(std::string("ply/") + file));
+    for (test::Variant v : {test::Variant::standard, test::Variant::anisotropic, test::Variant::cubes}) {
+      Params p = resolve_frame_estimates(base, test::variant_params(v));
+      p.backend = Backend::cuda;
+      const double reach = local_reach(resolve_params(base, p));
+      const std::size_t region = test::expect_local(std::string(file) + " " + test::to_string(v), base, p,
+                                                    test::frame_changes(base, p.spacing, reach), reach);
+      EXPECT_GT(region, 0u);
+    }
+  }
+}
+
+TEST(CudaLocality, RemovingASplashLeavesThePoolBeyondRLocalBitIdentical) {
+  MENISCUS_REQUIRE_CUDA_DEVICE();
+  const test::SplashScene s = test::synthetic_splash();
+  std::vector<std::size_t> splash;
+  std::vector<Vec3f> at;
+  for (std::size_t i = s.particles.size() - s.splash_count; i < s.particles.size(); ++i)
+    splash.push_back(i), at.push_back(s.particles.positions[i]);
+  for (test::Variant v : {test::Variant::standard, test::Variant::anisotropic, test::Variant::cubes}) {
+    Params p = test::variant_params(v);
+    p.spacing = s.d;
+    p.backend = Backend::cuda;
+    const double reach = local_reach(resolve_params(s.particles, p));
+    const test::FrameChange removed{"the splash removed", test::without_particles(s.particles, splash), at};
+    EXPECT_GT(test::expect_local(std::string("splash ") + test::to_string(v), s.particles, p, {removed}, reach), 1000u);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Frames, CudaParityFrame, ::testing::ValuesIn(kFrames), [](const auto& test_param) {

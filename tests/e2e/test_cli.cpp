@@ -1,13 +1,16 @@
 // End-to-end tests of the meniscus command line: the surface job, its stats, and refusals.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <tuple>
 
 #include "meniscus/io.hpp"
 #include "meniscus/quality.hpp"
+#include "meniscus/reconstruct.hpp"
 #include "support/test_support.hpp"
 
 namespace meniscus {
@@ -260,6 +263,49 @@ TEST(Cli, SequenceOfDissimilarFramesMeasuresFlickerInBoundedTime) {
   const auto far = nlohmann::json::parse(std::ifstream(tmp.file("s_0004.json")));
   EXPECT_EQ(far["flicker"]["beyond_cap"].get<double>(), far["vertices"].get<double>()) << "frame 4 is 100 units away";
   EXPECT_EQ(far["flicker"]["triangle_tests"].get<double>(), 0);
+}
+
+// Without --spacing a sequence estimates the spacing on its first frame and uses it for every
+// frame: a droplet appearing 60 d away in frame 2 then changes no vertex of the fluid (estimated
+// per frame, it would move them all).
+TEST(Cli, SequenceEstimatesTheSpacingOnItsFirstFrameOnly) {
+  TempDir tmp;
+  std::filesystem::create_directory(tmp.path / "sim");
+  std::filesystem::copy_file(sample(), tmp.file("sim/f_0001.ply"));
+  const ParticleSet first = read_particles(sample());
+  const double d = estimate_spacing(first);
+  Vec3f hi = first.positions[0];
+  for (const Vec3f& p : first.positions) hi = max(hi, p);
+  TriangleMesh points;  // a PLY of vertices only reads back as particles
+  points.vertices = first.positions;
+  for (int k = 0; k < 8; ++k)  // a droplet of 8 particles 0.6 d apart, 60 d beyond the fluid
+    points.vertices.push_back(hi + Vec3f{float(60 * d), 0, 0} + Vec3f{float(k % 2), float((k / 2) % 2), float(k / 4)} * float(0.6 * d));
+  write_mesh(tmp.file("sim/f_0002.ply"), points);
+  ASSERT_NE(estimate_spacing(read_particles(tmp.file("sim/f_0002.ply"))), d) << "frame 2 alone estimates another spacing";
+
+  std::string out;
+  ASSERT_EQ(run_command(cli() + " surface '" + tmp.file("sim/f_####.ply") + "' -o '" + tmp.file("m_####.ply") +
+                            "' --stats '" + tmp.file("s_####.json") + "'",
+                        &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("estimated on frame 1 and used for every frame: spacing"), std::string::npos) << out;
+  for (const char* s : {"s_0001.json", "s_0002.json"}) {
+    const auto j = nlohmann::json::parse(std::ifstream(tmp.file(s)));
+    EXPECT_DOUBLE_EQ(j["parameters"]["spacing"].get<double>(), d) << s;
+    EXPECT_TRUE(j["parameters"]["spacing_estimated"].get<bool>()) << s;
+    EXPECT_EQ(j["parameters"]["estimated_on"], tmp.file("sim/f_0001.ply")) << s;
+  }
+  const TriangleMesh m1 = read_mesh(tmp.file("m_0001.ply")), m2 = read_mesh(tmp.file("m_0002.ply"));
+  ASSERT_GT(m2.vertices.size(), m1.vertices.size());
+  std::vector<Vec3f> a = m1.vertices;
+  const auto less = [](const Vec3f& u, const Vec3f& v) { return std::tie(u.x, u.y, u.z) < std::tie(v.x, v.y, v.z); };
+  std::sort(a.begin(), a.end(), less);
+  std::vector<Vec3f> all = m2.vertices;
+  std::sort(all.begin(), all.end(), less);
+  std::size_t missing = 0;
+  for (const Vec3f& v : a) missing += !std::binary_search(all.begin(), all.end(), v, less);
+  EXPECT_EQ(missing, 0u) << "of frame 1's " << a.size() << " vertices, these are not in frame 2";
 }
 
 TEST(Cli, InspectFlickerBetweenUnrelatedMeshesIsCapped) {

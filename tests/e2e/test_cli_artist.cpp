@@ -229,7 +229,7 @@ TEST(CliArtist, ExplicitOptionsWinOverControlsWhichWinOverPresetAndConfig) {
       << out;
   const auto p = parameters(tmp.file("s.json"));
   EXPECT_EQ(p["steps_a"], 10);   // smoothness 0.25 over the preset over the config
-  EXPECT_EQ(p["steps_b"], 8);
+  EXPECT_EQ(p["steps_b"], 5);
   EXPECT_EQ(p["steps_free"], 2);  // the option given
   EXPECT_DOUBLE_EQ(p["detail"].get<double>(), 0.6);  // the preset over the config
   EXPECT_DOUBLE_EQ(p["erode"].get<double>(), 0.001);  // the config where nothing else says

@@ -198,7 +198,7 @@ TEST(FieldMethods, VelocityWeightingSmoothsFastFluidLess) {
   ASSERT_EQ(r0.mesh.vertices.size(), r2.mesh.vertices.size());
   // The smoothing runs on the Z-ordered mesh: number the unsmoothed vertices the same way.
   TriangleMesh before = r0.mesh;
-  reorder_vertices_spatially(before);
+  reorder_vertices_spatially(before, float(2 * r0.params.voxel_size));
   double plain_fast = 0, weighted_fast = 0, weighted_slow = 0, plain_slow = 0;
   std::size_t n_fast = 0, n_slow = 0;
   for (std::size_t i = 0; i < before.vertices.size(); ++i) {

@@ -70,7 +70,7 @@ TEST(Config, SmoothnessHalfIsTheDefaultScheduleZeroIsNoneAndItIsMonotone) {
   EXPECT_EQ(p.steps_a + p.steps_b + p.steps_free, 0);
   apply_smoothness(p, 1);
   EXPECT_EQ(p.steps_a, 40);
-  EXPECT_EQ(p.steps_b, 30);
+  EXPECT_EQ(p.steps_b, 20);
   EXPECT_EQ(p.steps_free, 6);
   Params previous;
   apply_smoothness(previous, 0);
@@ -158,8 +158,9 @@ TEST(Config, WrongTypesAndRangesNameTheKeyAndTheExpectation) {
       {R"({"extract": 3})", {"extract", "a string"}},
       {R"({"extract": "spheres"})", {"extract", "spheres"}},
       {R"({"transfer": [1, 2]})", {"transfer", "array of attribute names"}},
-      {R"({"relax": 2.5})", {"relax", "(0, 2)"}},
+      {R"({"relax": 2.5})", {"relax", "(0, 1]"}},
       {R"({"relax": 1.5, "solver": "jacobi"})", {"relax", "Jacobi"}},
+      {R"({"solver": "gauss-seidel"})", {"gauss-seidel", "chebyshev"}},
       {R"({"r-outer": -1})", {"r-outer", "r_outer"}},
       {R"({"smoothness": true})", {"smoothness", "a number"}},
       {R"({"detail": 0})", {"detail"}},

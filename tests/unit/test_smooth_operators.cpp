@@ -102,116 +102,10 @@ TEST(Adjacency, RowsAndTriangleListsMatchABruteForceReferenceOnClosedAndOpenMesh
   }
 }
 
-// renumber_adjacency permutes the rows and relabels their entries in place: the same rows (as
-// sets) as the adjacency built from the relabelled triangles, each in its old order; the triangle
-// lists stay where they were, found through tri_row (composed over two renumberings).
-TEST(Adjacency, RenumberedRowsAreTheRelabelledMeshsRowsInTheirOldOrder) {
-  const TriangleMesh m = perturbed_sphere(3, 0.01f, 3);
-  const std::size_t nv = m.vertices.size();
-  const Adjacency adj = build_adjacency(nv, m.triangles);
-  std::vector<uint32_t> order(nv);
-  for (std::size_t n = 0; n < nv; ++n) order[n] = uint32_t((n * 37 + 11) % nv);  // 37 is prime to nv
-  ASSERT_EQ(std::set<uint32_t>(order.begin(), order.end()).size(), nv);
-  std::vector<uint32_t> rank(nv);
-  for (std::size_t n = 0; n < nv; ++n) rank[order[n]] = uint32_t(n);
-  std::vector<Triangle> relabelled = m.triangles;
-  for (Triangle& t : relabelled)
-    for (uint32_t& v : t) v = rank[v];
-  const Adjacency expected = build_adjacency(nv, relabelled);
-  const Adjacency got = renumber_adjacency(Adjacency(adj), order);
-  ASSERT_EQ(got.vertex_count(), nv);
-  for (uint32_t n = 0; n < nv; ++n) {
-    std::vector<uint32_t> row(got.row(n).begin(), got.row(n).end());
-    std::vector<uint32_t> old_row;
-    for (uint32_t j : adj.row(order[n])) old_row.push_back(rank[j]);
-    EXPECT_EQ(row, old_row) << "row " << n << " keeps its old order";
-    std::sort(row.begin(), row.end());
-    EXPECT_EQ(row, std::vector<uint32_t>(expected.row(n).begin(), expected.row(n).end())) << n;
-    ASSERT_EQ(got.tri_row.size(), nv);
-    const uint32_t r = got.tri_row[n];
-    EXPECT_EQ(r, order[n]);
-    EXPECT_TRUE(std::equal(got.tri_ids.begin() + got.tri_offsets[r], got.tri_ids.begin() + got.tri_offsets[r + 1],
-                           expected.tri_ids.begin() + expected.tri_offsets[n],
-                           expected.tri_ids.begin() + expected.tri_offsets[n + 1]))
-        << "triangles of " << n;
-  }
-  // Renumbered again (reversed): vertex n of the result is vertex order[nv - 1 - n] of the mesh.
-  std::vector<uint32_t> reverse(nv);
-  for (std::size_t n = 0; n < nv; ++n) reverse[n] = uint32_t(nv - 1 - n);
-  const Adjacency twice = renumber_adjacency(Adjacency(got), reverse);
-  for (uint32_t n = 0; n < nv; ++n) ASSERT_EQ(twice.tri_row[n], order[nv - 1 - n]) << n;
-}
-
-// greedy_colors (a register bit set for the first 64 colours, a marks array past them) against
-// the serial greedy written out plainly: the colourings must be the same, colour for colour (they
-// fix the Gauss-Seidel classes, the CUDA backend's too). The complete graph on 70 vertices takes
-// the path past 64 colours.
-TEST(Adjacency, GreedyColoursAreTheSerialGreedy) {
-  auto reference = [](const Adjacency& adj, int distance) {
-    const std::size_t nv = adj.vertex_count();
-    std::vector<int> color(nv, -1);
-    for (uint32_t i = 0; i < nv; ++i) {
-      std::set<int> taken;
-      for (uint32_t j : adj.row(i)) {
-        taken.insert(color[j]);
-        if (distance == 2)
-          for (uint32_t k : adj.row(j))
-            if (k != i) taken.insert(color[k]);
-      }
-      int c = 0;
-      while (taken.count(c)) ++c;
-      color[i] = c;
-    }
-    return color;
-  };
-  const TriangleMesh m = perturbed_sphere(3, 0.01f, 4);
-  std::vector<Adjacency> graphs{build_adjacency(m.vertices.size(), m.triangles)};
-  Adjacency complete;  // K70: every vertex adjacent to every other
-  complete.offsets.push_back(0);
-  for (uint32_t i = 0; i < 70; ++i) {
-    for (uint32_t j = 0; j < 70; ++j)
-      if (j != i) complete.neighbors.push_back(j);
-    complete.offsets.push_back(uint32_t(complete.neighbors.size()));
-  }
-  graphs.push_back(complete);
-  for (const Adjacency& adj : graphs)
-    for (int distance : {1, 2}) {
-      const std::vector<uint16_t> got = greedy_colors(adj, distance);
-      const std::vector<int> expected = reference(adj, distance);
-      ASSERT_EQ(got.size(), expected.size());
-      for (std::size_t i = 0; i < got.size(); ++i) ASSERT_EQ(int(got[i]), expected[i]) << "vertex " << i << " distance " << distance;
-    }
-  EXPECT_EQ(greedy_colors(complete, 1)[69], 69);
-}
-
-TEST(Adjacency, ColoringsAreIndependentSets) {
-  const TriangleMesh m = perturbed_sphere(3, 0.01f, 2);
-  const Adjacency adj = build_adjacency(m.vertices.size(), m.triangles);
-  for (int distance : {1, 2}) {
-    const Coloring c = color_vertices(adj, distance);
-    std::vector<int> color(m.vertices.size(), -1);
-    for (std::size_t k = 0; k < c.colors(); ++k)
-      for (uint32_t i = c.offsets[k]; i < c.offsets[k + 1]; ++i) color[c.vertices[i]] = int(k);
-    for (int v : color) ASSERT_GE(v, 0);
-    for (uint32_t i = 0; i < m.vertices.size(); ++i)
-      for (uint32_t j : adj.row(i)) {
-        ASSERT_NE(color[i], color[j]);
-        if (distance == 2) {
-          for (uint32_t k : adj.row(j)) {
-            if (k != i) {
-              ASSERT_NE(color[i], color[k]);
-            }
-          }
-        }
-      }
-    EXPECT_LE(c.colors(), distance == 1 ? 8u : 32u);
-  }
-}
-
 TEST(CotanOperator, RegularOctahedronHasTheClosedFormWeights) {
   const TriangleMesh m = perturbed_sphere(0, 0, 1);
   const Adjacency adj = build_adjacency(m.vertices.size(), m.triangles);
-  const CotanOperator op = build_cotan_operator(m.vertices, m.triangles, adj);
+  const CotanOperator op = build_cotan_operator(m.vertices, m.triangles, adj, 0.0f);
   const float cot60 = 1.0f / std::sqrt(3.0f);
   for (float w : op.w) EXPECT_NEAR(w, 2 * cot60, 1e-5f);
   const float area = std::sqrt(3.0f) / 4 * 2;  // equilateral, side √2
@@ -225,7 +119,7 @@ TEST(CotanOperator, MatchesADenseReferenceOnAnIrregularMesh) {
   const TriangleMesh m = perturbed_sphere(2, 0.04f, 9);
   const std::size_t n = m.vertices.size();
   const Adjacency adj = build_adjacency(n, m.triangles);
-  const CotanOperator op = build_cotan_operator(m.vertices, m.triangles, adj);
+  const CotanOperator op = build_cotan_operator(m.vertices, m.triangles, adj, 0.0f);
 
   // Dense W and D assembled by scattering per triangle (the textbook form).
   std::vector<double> W(n * n, 0.0), D(n, 0.0);
@@ -269,8 +163,7 @@ TEST(CotanOperator, MatchesADenseReferenceOnAnIrregularMesh) {
 
 // The operator from corner lists (adopt_corner_lists: what the CPU sweeps use) is bit for bit the
 // one from the triangle lists (cotan_row over MeshRows: what the CUDA backend uses), on a closed
-// mesh, an open one with a degenerate triangle, and renumbered — the corner lists then made from
-// the triangles in their own numbering, the reference from the relabelled ones.
+// mesh and an open one with a degenerate triangle.
 TEST(CotanOperator, CornerListsGiveTheTriangleListsOperatorBitForBit) {
   const TriangleMesh closed = perturbed_sphere(4, 0.02f, 7);
   TriangleMesh open = with_holes(closed, 7, 3);
@@ -285,13 +178,13 @@ TEST(CotanOperator, CornerListsGiveTheTriangleListsOperatorBitForBit) {
   for (const TriangleMesh* m : {&closed, static_cast<const TriangleMesh*>(&open)}) {
     const std::size_t nv = m->vertices.size();
     const Adjacency lists = build_adjacency(nv, m->triangles);
-    const CotanOperator reference = build_cotan_operator(m->vertices, m->triangles, lists);
+    const CotanOperator reference = build_cotan_operator(m->vertices, m->triangles, lists, 0.0f);
     Adjacency corners = build_adjacency(nv, m->triangles);
-    ASSERT_TRUE(adopt_corner_lists(corners, m->triangles, {}));
+    ASSERT_TRUE(adopt_corner_lists(corners, m->triangles));
     EXPECT_TRUE(corners.tri_ids.empty() && corners.tri_offsets.empty()) << "the triangle lists are freed";
     ASSERT_EQ(corners.corner_offsets.size(), nv + 1);
     EXPECT_EQ(corners.corners.size(), 3 * m->triangles.size());
-    same(build_cotan_operator(m->vertices, {}, corners), reference, "plain");
+    same(build_cotan_operator(m->vertices, {}, corners, 0.0f), reference, "plain");
     // The CPU sums W_ii again from the row (w_diagonal); the CUDA backend stores what cotan_row
     // returns: the same bits.
     const MeshRows rows{lists.offsets.data(), lists.neighbors.data(), lists.tri_offsets.data(), lists.tri_ids.data(),
@@ -303,35 +196,6 @@ TEST(CotanOperator, CornerListsGiveTheTriangleListsOperatorBitForBit) {
       ASSERT_EQ(diag, w_diagonal(lists, reference, i)) << "vertex " << i;
     }
 
-    // Renumbered: new vertex n is old order[n].
-    std::vector<uint32_t> order(nv), rank(nv);
-    for (std::size_t n = 0; n < nv; ++n) order[n] = uint32_t((n * 101 + 7) % nv);
-    for (std::size_t n = 0; n < nv; ++n) rank[order[n]] = uint32_t(n);
-    std::vector<Vec3f> x(nv);
-    for (std::size_t n = 0; n < nv; ++n) x[n] = m->vertices[order[n]];
-    std::vector<Triangle> relabelled = m->triangles;
-    for (Triangle& t : relabelled)
-      for (uint32_t& v : t) v = rank[v];
-    const Adjacency renumbered_lists = renumber_adjacency(build_adjacency(nv, m->triangles), order);
-    const CotanOperator renumbered_reference = build_cotan_operator(x, relabelled, renumbered_lists);
-    Adjacency renumbered_corners = renumber_adjacency(build_adjacency(nv, m->triangles), order);
-    ASSERT_TRUE(adopt_corner_lists(renumbered_corners, m->triangles, rank));
-    EXPECT_TRUE(renumbered_corners.tri_row.empty());
-    same(build_cotan_operator(x, {}, renumbered_corners), renumbered_reference, "renumbered");
-
-    // Adopted in the mesh's numbering, then renumbered (the smoothing's order): the lists move
-    // with their rows and are those adopted after the renumbering.
-    Adjacency adopted_first = build_adjacency(nv, m->triangles);
-    ASSERT_TRUE(adopt_corner_lists(adopted_first, m->triangles, {}));
-    adopted_first = renumber_adjacency(std::move(adopted_first), order);
-    EXPECT_TRUE(adopted_first.tri_row.empty() && adopted_first.tri_ids.empty());
-    EXPECT_TRUE(adopted_first.corner_offsets == renumbered_corners.corner_offsets);
-    ASSERT_EQ(adopted_first.corners.size(), renumbered_corners.corners.size());
-    for (std::size_t k = 0; k < adopted_first.corners.size(); ++k) {
-      ASSERT_EQ(adopted_first.corners[k].j, renumbered_corners.corners[k].j) << k;
-      ASSERT_EQ(adopted_first.corners[k].l, renumbered_corners.corners[k].l) << k;
-    }
-    same(build_cotan_operator(x, {}, adopted_first), renumbered_reference, "adopted, then renumbered");
   }
 }
 
@@ -380,9 +244,9 @@ TEST(Adjacency, CompactNeighboursReadBackEveryEntry) {
   EXPECT_EQ(checked, entries.size());
 }
 
-// The smoothing's set-up compacts the rows first, then colours, adopts corner lists and renumbers
-// them in that form: the same colours, corner lists and renumbered rows as from the full lists.
-TEST(Adjacency, CompactRowsColourAdoptAndRenumberAsTheFullOnes) {
+// The smoothing's set-up compacts the rows first, then adopts corner lists in that form: the same
+// corner lists as from the full lists.
+TEST(Adjacency, CompactRowsAdoptTheFullRowsCornerLists) {
   const TriangleMesh sphere = perturbed_sphere(7, 0.02f, 5);
   const std::size_t nv = sphere.vertices.size();
   // A numbering at random: a fifth or more of the entries far (stored aside), the rest near.
@@ -398,26 +262,13 @@ TEST(Adjacency, CompactRowsColourAdoptAndRenumberAsTheFullOnes) {
   compact.compact_neighbors();
   ASSERT_FALSE(compact.compact.far_entry.empty());
   ASSERT_FALSE(compact.compact.far_entry.size() == compact.entry_count());
-  for (int distance : {1, 2}) EXPECT_EQ(greedy_colors(full, distance), greedy_colors(compact, distance));
-  ASSERT_TRUE(adopt_corner_lists(full, triangles, {}));
-  ASSERT_TRUE(adopt_corner_lists(compact, triangles, {}));
+  ASSERT_TRUE(adopt_corner_lists(full, triangles));
+  ASSERT_TRUE(adopt_corner_lists(compact, triangles));
   EXPECT_TRUE(full.corner_offsets == compact.corner_offsets);
   for (std::size_t k = 0; k < full.corners.size(); ++k) {
     ASSERT_EQ(full.corners[k].j, compact.corners[k].j) << k;
     ASSERT_EQ(full.corners[k].l, compact.corners[k].l) << k;
   }
-  // Renumbered (reversed): each comes out compact, the same.
-  std::vector<uint32_t> order(nv);
-  for (std::size_t n = 0; n < nv; ++n) order[n] = uint32_t(nv - 1 - n);
-  full = renumber_adjacency(std::move(full), order);
-  compact = renumber_adjacency(std::move(compact), order);
-  ASSERT_FALSE(compact.compact.empty());
-  EXPECT_TRUE(compact.neighbors.empty());
-  full.compact_neighbors();
-  EXPECT_TRUE(full.offsets == compact.offsets);
-  EXPECT_TRUE(full.compact.delta == compact.compact.delta);
-  EXPECT_EQ(full.compact.far_entry, compact.compact.far_entry);
-  EXPECT_EQ(full.compact.far_vertex, compact.compact.far_vertex);
   EXPECT_TRUE(full.corner_offsets == compact.corner_offsets);
 }
 
@@ -437,13 +288,13 @@ TEST(CotanOperator, CompactNeighboursGiveTheSameOperatorProductsAndSmoothing) {
   for (Triangle& t : m.triangles)
     for (uint32_t& v : t) v = rank[v];
   Adjacency plain = build_adjacency(nv, m.triangles);
-  ASSERT_TRUE(adopt_corner_lists(plain, m.triangles, {}));
+  ASSERT_TRUE(adopt_corner_lists(plain, m.triangles));
   Adjacency compact = build_adjacency(nv, m.triangles);
-  ASSERT_TRUE(adopt_corner_lists(compact, m.triangles, {}));
+  ASSERT_TRUE(adopt_corner_lists(compact, m.triangles));
   compact.compact_neighbors();
   EXPECT_GT(compact.compact.far_entry.size(), compact.entry_count() / 5);
-  const CotanOperator a = build_cotan_operator(m.vertices, {}, plain);
-  const CotanOperator b = build_cotan_operator(m.vertices, {}, compact);
+  const CotanOperator a = build_cotan_operator(m.vertices, {}, plain, 0.0f);
+  const CotanOperator b = build_cotan_operator(m.vertices, {}, compact, 0.0f);
   ASSERT_TRUE(a.w == b.w && a.area == b.area);
   std::vector<Vec3f> wa(nv), wb(nv);
   apply_w(plain, a, m.vertices, wa);
@@ -506,10 +357,10 @@ TEST(CotanOperator, ARowTooLongForCornerListsKeepsTheTriangleLists) {
   Adjacency adj = build_adjacency(fan.vertices.size(), fan.triangles);
   ASSERT_GT(adj.row(0).size(), std::size_t(kMaxCornerRow));
   const std::size_t tri_ids = adj.tri_ids.size();
-  EXPECT_FALSE(adopt_corner_lists(adj, fan.triangles, {}));
+  EXPECT_FALSE(adopt_corner_lists(adj, fan.triangles));
   EXPECT_EQ(adj.tri_ids.size(), tri_ids);
   EXPECT_TRUE(adj.corner_offsets.empty());
-  const CotanOperator op = build_cotan_operator(fan.vertices, fan.triangles, adj);
+  const CotanOperator op = build_cotan_operator(fan.vertices, fan.triangles, adj, 0.0f);
   float sum = 0;
   for (uint32_t e = adj.offsets[0]; e < adj.offsets[1]; ++e) sum += op.w[e];
   EXPECT_EQ(w_diagonal(adj, op, 0), -sum);

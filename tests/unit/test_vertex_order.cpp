@@ -34,18 +34,16 @@ TEST(VertexOrder, ZOrderedVerticesAndTrianglesByTheirSmallestCornerStably) {
   for (std::size_t i = 0; i < before.vertices.size(); ++i) before.normals.push_back({float(i), 0, 0});
   ASSERT_GT(before.triangles.size(), 20000u);
   TriangleMesh after = before;
-  reorder_vertices_spatially(after);
+  const float cell = 0.1f;
+  reorder_vertices_spatially(after, cell);
   ASSERT_EQ(after.vertices.size(), before.vertices.size());
   ASSERT_EQ(after.triangles.size(), before.triangles.size());
 
-  Vec3f lo = before.vertices[0], hi = lo;
-  for (const Vec3f& v : before.vertices) lo = min(lo, v), hi = max(hi, v);
-  const float scale = morton_scale(lo, hi);
   // The expected order: (Morton key, old index), by a comparison sort.
   std::vector<uint32_t> old_of_new(before.vertices.size());
   for (uint32_t i = 0; i < old_of_new.size(); ++i) old_of_new[i] = i;
   std::stable_sort(old_of_new.begin(), old_of_new.end(), [&](uint32_t a, uint32_t b) {
-    return morton_key(before.vertices[a], lo, scale) < morton_key(before.vertices[b], lo, scale);
+    return morton_key(before.vertices[a], 1.0f / cell) < morton_key(before.vertices[b], 1.0f / cell);
   });
   std::vector<uint32_t> new_of_old(old_of_new.size());
   for (uint32_t i = 0; i < old_of_new.size(); ++i) {
@@ -60,6 +58,37 @@ TEST(VertexOrder, ZOrderedVerticesAndTrianglesByTheirSmallestCornerStably) {
     return std::min({a[0], a[1], a[2]}) < std::min({b[0], b[1], b[2]});
   });
   EXPECT_TRUE(after.triangles == expected);
+}
+
+}  // namespace
+}  // namespace meniscus
+
+namespace meniscus {
+namespace {
+
+// The order is a function of each vertex's own position: the relative order of a frame's vertices
+// is the same when the frame grows (a far particle, a bigger box) — what keeps the sweeps, whose
+// sums follow the numbering, local. Cells are anchored at the origin and wrap every 1024 cells.
+TEST(VertexOrder, TheKeyIsAFunctionOfThePositionAlone) {
+  const float inv_cell = 1.0f / 0.05f;
+  EXPECT_EQ(morton_key({0.01f, 0.01f, 0.01f}, inv_cell), 0u);
+  EXPECT_EQ(morton_key({0.06f, 0, 0}, inv_cell), 1u);                    // x cell 1
+  EXPECT_EQ(morton_key({0, 0.06f, 0}, inv_cell), 2u);                    // y cell 1
+  EXPECT_EQ(morton_key({0, 0, 0.06f}, inv_cell), 4u);                    // z cell 1
+  EXPECT_EQ(morton_key({-0.01f, 0, 0}, inv_cell), morton_key({1023 * 0.05f + 0.01f, 0, 0}, inv_cell));  // cell −1 ≡ 1023
+  EXPECT_EQ(morton_key({0.06f, 0, 0}, inv_cell), morton_key({1024 * 0.05f + 0.06f, 0, 0}, inv_cell));  // wraps
+  TriangleMesh small = raw_extraction();
+  TriangleMesh grown = small;
+  // A far-away triangle (a tiny droplet) appended: the frame's box is ten times larger.
+  const uint32_t n = uint32_t(grown.vertices.size());
+  grown.vertices.insert(grown.vertices.end(), {{40, 30, 20}, {40.01f, 30, 20}, {40, 30.01f, 20}});
+  grown.triangles.push_back({n, n + 1, n + 2});
+  reorder_vertices_spatially(small, 0.1f);
+  reorder_vertices_spatially(grown, 0.1f);
+  std::vector<Vec3f> kept;
+  for (const Vec3f& v : grown.vertices)
+    if (v.x < 30) kept.push_back(v);
+  EXPECT_TRUE(kept == small.vertices) << "the frame's vertices keep their relative order";
 }
 
 }  // namespace

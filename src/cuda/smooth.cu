@@ -223,7 +223,7 @@ SmoothReport smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const 
     other.copy_from(mesh.vertices);
     float weight = 1.0f;
     for (int s = 0; s < o.steps_a; ++s) {
-      weight = chebyshev_weight(s, o.steps_a, weight, o.solver);
+      weight = chebyshev_weight(s, o.steps_a, weight, o.solver, o.chebyshev_rho);
       MENISCUS_LAUNCH(a_sweep_kernel, blocks_for(nv), 256)(off, nb, nv, mesh.vertices.data(), other.data(), o.relax_a,
                                                            weight, true, g);
       MENISCUS_CUDA_CHECK_LAUNCH();

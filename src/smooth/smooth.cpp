@@ -70,7 +70,7 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
     parallel_for_index(nv, 4096, [&](std::size_t i) { other[i] = x[i]; });
     float weight = 1.0f;
     for (int s = 0; s < o.steps_a; ++s, tick()) {
-      weight = chebyshev_weight(s, o.steps_a, weight, o.solver);
+      weight = chebyshev_weight(s, o.steps_a, weight, o.solver, o.chebyshev_rho);
       for_each_vertex(nv, [&](uint32_t i) {
         other[i] = a_sweep_position(x[i], neighbour_mean(adj, neighbors, x, i), other[i], o.relax_a, vertex_factor(i),
                                     weight);

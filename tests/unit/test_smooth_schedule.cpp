@@ -119,7 +119,7 @@ TEST(SmoothSchedule, ChebyshevWeightsAreGolubAndVargas) {
   float w = 1;
   for (int s = 0; s < steps; ++s) {
     const float previous = w;
-    w = chebyshev_weight(s, steps, w, SmoothingSolver::chebyshev);
+    w = chebyshev_weight(s, steps, w, SmoothingSolver::chebyshev, kChebyshevRhoA);
     if (s == 0 || s >= steps - tail) {
       EXPECT_EQ(w, 1.0f) << s;
     } else if (s == 1) {
@@ -131,8 +131,13 @@ TEST(SmoothSchedule, ChebyshevWeightsAreGolubAndVargas) {
         EXPECT_LT(w, limit + 0.02f);  // close to it by the last accelerated sweep
       }
     }
-    EXPECT_EQ(chebyshev_weight(s, steps, 1.5f, SmoothingSolver::jacobi), 1.0f);
+    EXPECT_EQ(chebyshev_weight(s, steps, 1.5f, SmoothingSolver::jacobi, kChebyshevRhoA), 1.0f);
   }
+  // The distance fields are accelerated for ρ = 0.97, the density fields, smooth as extracted, less.
+  EXPECT_EQ(chebyshev_rho_for(FieldMethod::distance), kChebyshevRhoA);
+  EXPECT_EQ(chebyshev_rho_for(FieldMethod::zhu_bridson), kChebyshevRhoA);
+  for (FieldMethod f : {FieldMethod::metaball, FieldMethod::sph, FieldMethod::anisotropic})
+    EXPECT_EQ(chebyshev_rho_for(f), kChebyshevRhoDensity);
 }
 
 TEST(SmoothSchedule, ConstrainedSweepsKeepEveryVertexInTheShell) {

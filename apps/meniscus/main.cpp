@@ -235,15 +235,27 @@ struct FrameFiles {
   std::string input, output, stats, preview, field;
 };
 
-/// Reads, surfaces and writes one frame; `verbose` prints the per-frame report.
-Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, const ProgressFn& progress) {
+ReadOptions read_options(const SurfaceArgs& a) {
+  ReadOptions o;
+  o.drop_invalid = a.drop_invalid;
+  o.columns = a.columns;
+  return o;
+}
+
+/// A frame's particles read ahead of surfacing it, and the time the read took.
+struct ReadFrame {
+  ParticleSet particles;
+  double seconds = 0;
+};
+
+/// Reads, surfaces and writes one frame; `verbose` prints the per-frame report. `preread`: the
+/// frame as it was read already (taken over).
+Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, const ProgressFn& progress,
+                   std::optional<ReadFrame> preread = std::nullopt) {
   const auto t0 = std::chrono::steady_clock::now();
-  ReadOptions read_options;
-  read_options.drop_invalid = a.drop_invalid;
-  read_options.columns = a.columns;
   ReadReport report;
-  const ParticleSet particles = read_particles(f.input, read_options, &report);
-  const double read_seconds = seconds_since(t0);
+  const ParticleSet particles = preread ? std::move(preread->particles) : read_particles(f.input, read_options(a), &report);
+  const double read_seconds = preread ? preread->seconds : seconds_since(t0);
   if (verbose) {
     fmt::print(stderr, "read {} particles from {} ({})\n", particles.size(), f.input, report.format);
     if (report.dropped_invalid) fmt::print(stderr, "dropped {} particles with NaN/Inf coordinates\n", report.dropped_invalid);
@@ -373,23 +385,23 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
   if (frames.empty()) throw InvalidParameter(fmt::format("no frames found for '{}' (give --frames)", a.input));
 
   // The frame-wide estimates (spacing, rest density, reference speed) not given are made on the
-  // first frame and used for every frame: re-estimated per frame, a droplet appearing anywhere
-  // would move the whole surface.
+  // first frame that reads and used for every frame: re-estimated per frame, a droplet appearing
+  // anywhere would move the whole surface. That frame's particles are surfaced as read here; a
+  // frame that does not read is reported with the others.
   const Params& gp = given.params;
-  if (gp.spacing == 0 || (gp.velocity_weighted && gp.velocity_reference == 0) ||
-      (gp.rest_density == 0 && (gp.field == FieldMethod::sph || gp.field == FieldMethod::anisotropic))) {
-    ReadOptions read_options;
-    read_options.drop_invalid = a.drop_invalid;
-    read_options.columns = a.columns;
-    std::size_t first = 0;  // the first frame that reads (a bad frame is reported with the others)
-    for (;; ++first) {
-      try {
-        a.params = resolve_frame_estimates(read_particles(in.format(frames[first]), read_options), gp);
-        break;
-      } catch (const std::exception&) {
-        if (first + 1 == frames.size()) throw;
-      }
+  std::size_t first = 0;
+  std::optional<ReadFrame> first_frame;
+  for (; first < frames.size() && !first_frame; ++first) {
+    try {
+      const auto t0 = std::chrono::steady_clock::now();
+      ParticleSet particles = read_particles(in.format(frames[first]), read_options(a));
+      first_frame = ReadFrame{std::move(particles), seconds_since(t0)};
+    } catch (const std::exception&) {
     }
+  }
+  --first;
+  if (first_frame) a.params = resolve_frame_estimates(first_frame->particles, gp);
+  if (!(a.params == gp)) {
     a.estimated_on = in.format(frames[first]);
     if (!a.quiet) {
       std::string what = fmt::format("spacing {:.6g}", a.params.spacing);
@@ -423,11 +435,16 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
       FrameFiles f{in.format(frame), out->format(frame), stats ? stats->format(frame) : "",
                    preview ? preview->format(frame) : "", field ? field->format(frame) : ""};
       try {
-        Result r = surface_one(a, f, false, [&](std::string_view stage, double fraction) {
-          if (jobs > 1) return;
-          std::lock_guard lock(mutex);
-          bar.update(fmt::format("frame {} {}", frame, stage), (double(done) + fraction) / double(frames.size()));
-        });
+        std::optional<ReadFrame> preread;
+        if (i == first) preread = std::exchange(first_frame, std::nullopt);
+        Result r = surface_one(
+            a, f, false,
+            [&](std::string_view stage, double fraction) {
+              if (jobs > 1) return;
+              std::lock_guard lock(mutex);
+              bar.update(fmt::format("frame {} {}", frame, stage), (double(done) + fraction) / double(frames.size()));
+            },
+            std::move(preread));
         std::lock_guard lock(mutex);
         ++done;
         triangles += r.stats.triangles;

@@ -170,7 +170,7 @@ __global__ void b_sweep_kernel(const uint32_t* offsets, const uint32_t* neighbor
     const uint32_t i = uint32_t(k);
     float b_ii;
     const Vec3f bx = bilaplacian_row_and_diagonal(offsets, neighbors, w, diag[i], area, wx, i, &b_ii);
-    const Vec3f moved = x[i] - bx * (omega[i] * c.factor(i) / b_ii);
+    const Vec3f moved = b_sweep_position(x[i], bx, b_ii, omega[i], c.factor(i));
     x[i] = constrained ? c.project(moved) : moved;
   }
 }

@@ -70,6 +70,12 @@ MENISCUS_HD inline Vec3f a_sweep_position(Vec3f x, Vec3f mean, Vec3f before, flo
   return weight == 1.0f ? y : (y - before) * weight + before;
 }
 
+/// A B sweep's move of vertex x: (B x)_i = bx with diagonal B_ii, the vertex's stable damping ω_i
+/// (b_stable_damping) and factor f of the velocity weighting.
+MENISCUS_HD inline Vec3f b_sweep_position(Vec3f x, Vec3f bx, float b_ii, float omega, float factor) {
+  return x - bx * (omega * factor / b_ii);
+}
+
 /// The schedule of resolved parameters `p`.
 inline SmoothSchedule smooth_schedule(const Params& p) {
   SmoothSchedule s;

@@ -130,7 +130,7 @@ SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triang
         float b_ii;
         const Vec3f bx = bilaplacian_row_and_diagonal(adj.offsets.data(), neighbors, op.w.data(), w_ii, op.area.data(),
                                                       wx.data(), i, &b_ii);
-        x[i] -= bx * (omega[i] * vertex_factor(i) / b_ii);
+        x[i] = b_sweep_position(x[i], bx, b_ii, omega[i], vertex_factor(i));
         if (constrained) project_constraint(i, from);
       });
       update_wx();

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -29,6 +30,7 @@
 #include "meniscus/backend.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/reconstruct.hpp"
+#include "meniscus/resources.hpp"
 #include "extract/field_band.hpp"
 #include "mesh/vertex_order.hpp"
 #include "smooth/schedule.hpp"
@@ -55,10 +57,8 @@ std::size_t peak_rss_bytes() {
   return std::size_t(usage.ru_maxrss) * 1024;
 }
 
-double physical_memory_gb() {
-  const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);
-  return pages > 0 && size > 0 ? double(pages) * double(size) / 1e9 : 16.0;
-}
+/// The default --max-memory: 90 % of what the process is granted (resources.hpp).
+constexpr double kMemoryShare = 0.9;
 
 class StageTimer {
  public:
@@ -96,9 +96,23 @@ void check_particles(const ParticleSet& particles) {
   }
 }
 
-/// Refuses, before allocating, a field that would not fit in `max_bytes`.
+/// The process's resident memory now (0 where /proc is not there).
+double resident_bytes() {
+  std::ifstream statm("/proc/self/statm");
+  double pages = 0, resident = 0;
+  return statm >> pages >> resident ? resident * double(sysconf(_SC_PAGE_SIZE)) : 0.0;
+}
+
+/// What a run needs per block of the field band, through the smoothing: the block's samples, the
+/// mesh extracted in it and that mesh's smoothing arrays. Measured on the bundled real frames
+/// (peak RSS over the baseline / field blocks, default field): 16-27 KB; 24 KB is the estimate,
+/// the 90 % default share of the grant the margin.
+constexpr double kRunBytesPerBandBlock = 24e3;
+
+/// Refuses, before allocating, a field that would not fit in `max_bytes`, and a run whose field,
+/// mesh and smoothing would not (`limit_from`: where the limit comes from, for the message).
 std::vector<uint64_t> checked_band_blocks(const HashGrid& grid, const SampleLattice& lattice, float band,
-                                          double max_bytes, const Params& p) {
+                                          double max_bytes, const Params& p, const std::string& limit_from) {
   // Upper bound on the keys band_blocks() would list (each occupied hash cell's box expanded by
   // the band, in blocks), so an absurd voxel size is refused before the key list is built.
   const double block_size = double(lattice.cell_size) * lattice.block_cells();
@@ -113,6 +127,13 @@ std::vector<uint64_t> checked_band_blocks(const HashGrid& grid, const SampleLatt
   if (bound * 8.0 > max_bytes) refuse(bound);
   std::vector<uint64_t> keys = band_blocks(grid, lattice, band);
   if (double(keys.size()) * (kBlockSamples * 4 + 20) > max_bytes) refuse(double(keys.size()));
+  const double resident = resident_bytes(), need = resident + double(keys.size()) * kRunBytesPerBandBlock;
+  if (need > max_bytes)
+    throw ResourceError(fmt::format(
+        "this frame would need about {:.2f} GB ({:.0f} MB in use, {} field blocks at voxel size {:g} for the field, the "
+        "mesh and its smoothing), more than the {:.2f} GB allowed ({}); use a larger --voxel-size, or give the job "
+        "more memory (--max-memory, Slurm's --mem)",
+        need / 1e9, resident / 1e6, keys.size(), p.voxel_size, max_bytes / 1e9, limit_from));
   return keys;
 }
 
@@ -127,6 +148,9 @@ const Attribute* density_attribute(const ParticleSet& particles) {
   return find_attribute(particles, {"density", "rho", "dens"}, 1);
 }
 const Attribute* mass_attribute(const ParticleSet& particles) { return find_attribute(particles, {"mass", "m"}, 1); }
+const Attribute* velocity_attribute(const ParticleSet& particles) {
+  return find_attribute(particles, {"v", "vel", "velocity"}, 3);
+}
 
 /// The median of the particles' positive densities (0 when none is positive).
 double median_density(const Attribute& density) {
@@ -273,24 +297,25 @@ Params resolve_params(const ParticleSet& particles, const Params& in) {
       !mass_attribute(particles))
     if (const Attribute* density = density_attribute(particles)) p.rest_density = median_density(*density);
   if (p.velocity_weighted && p.velocity_reference == 0)
-    if (const Attribute* velocity = find_attribute(particles, {"v", "vel", "velocity"}, 3))
+    if (const Attribute* velocity = velocity_attribute(particles))
       p.velocity_reference = velocity_reference(*velocity);
-  if (p.threads == 0) p.threads = tbb::info::default_concurrency();
-  if (p.max_memory_gb == 0) p.max_memory_gb = 0.9 * physical_memory_gb();
+  if (p.threads == 0) p.threads = int(granted_threads().amount);
+  if (p.max_memory_gb == 0) p.max_memory_gb = kMemoryShare * granted_memory().amount / 1e9;
   p.validate();
   return p;
 }
 
 double local_reach(const Params& p) {
   const double d = p.spacing, edge = longest_triangle_edge(p.extract, p.voxel_size);
-  const bool anisotropic = p.field == FieldMethod::anisotropic;
-  const AnisotropyConstants k;
+  const ParticlePass pass = particle_pass(p);  // the centre smoothing's and the PCA's radii
+  const bool anisotropic = pass.anisotropic;
+  const AnisotropyConstants& k = pass.constants;
   // What an extracted vertex's position reads: the two samples of its lattice edge (within one
   // edge of it), each the particles within r_outer or the kernels' support (anisotropic: R·σ̃₁ ≤
   // R·k_max, each ellipsoid from its particle's neighbours within 2R), the centres smoothed over 2d.
   double field = p.field == FieldMethod::distance ? p.r_outer : p.kernel_radius * (anisotropic ? k.k_max : 1.0);
-  if (anisotropic) field += 2 * p.kernel_radius;
-  if (anisotropic || p.smooth_particles > 0) field += 2 * d;
+  if (anisotropic) field += pass.pca_radius;
+  if (pass.run) field += pass.smooth_radius;
   field += 2 * edge;
   // What a projection reads: the (metric-)nearest particle, within r_outer (an ellipsoid's
   // longest axis at most k_r^(2/3) times that) of where the vertex is, plus that ellipsoid's
@@ -298,8 +323,9 @@ double local_reach(const Params& p) {
   // during the sweeps: kDrift allows 4 d (measured at most 2.9 d on every bundled frame with the
   // default schedule, --field anisotropic and --extract cubes).
   constexpr double kDrift = 4;
-  double projection = anisotropic ? p.r_outer * std::cbrt(double(k.k_r) * k.k_r) + 2 * p.kernel_radius + 2 * d : p.r_outer;
-  if (p.smooth_particles > 0 && !anisotropic) projection += 2 * d;
+  double projection = p.r_outer;
+  if (anisotropic) projection = p.r_outer * std::cbrt(double(k.k_r) * k.k_r) + pass.pca_radius;
+  if (pass.run) projection += pass.smooth_radius;
   if (p.velocity_weighted) projection = std::max(projection, p.transfer_radius);
   projection += kDrift * d;
   const int rings = smoothing_rings(smooth_schedule(p)) + (p.erode > 0 ? 1 : 0);
@@ -328,7 +354,7 @@ const Attribute* check_inputs(const ParticleSet& particles, const Params& params
       throw InvalidParameter(fmt::format("transfer: the particles have no attribute '{}' (they have: {})", name,
                                          available.empty() ? "none" : available));
     }
-  const Attribute* velocity = find_attribute(particles, {"v", "vel", "velocity"}, 3);
+  const Attribute* velocity = velocity_attribute(particles);
   if (params.velocity_weighted && !velocity)
     throw InvalidParameter("velocity_weighted: the particles have no velocity attribute (v, vel or velocity with 3 "
                            "components); surface without --velocity-weighted");
@@ -433,7 +459,8 @@ class CpuPipeline {
     if (!plan_.kernel_field) {
       const SparseField field = timer_.run("field", [&] {
         return distance_field(*grid_, plan_.lattice, plan_.distance_band,
-                              checked_band_blocks(*grid_, plan_.lattice, plan_.distance_band, max_bytes, p_));
+                              checked_band_blocks(*grid_, plan_.lattice, plan_.distance_band, max_bytes, p_,
+                                                  stats_.max_memory_from));
       });
       stats_.field_blocks = field.block_count();
       extracted = timer_.run("extract", [&] { return extract_surface(field, plan_.iso, plan_.extractor); });
@@ -449,7 +476,7 @@ class CpuPipeline {
       in.ellipsoids = sorted_ellipsoids_;
       const SparseField field = timer_.run("field", [&] {
         const float band = kernel_support(in) + float(p_.voxel_size);
-        return kernel_field(in, plan_.lattice, checked_band_blocks(*grid_, plan_.lattice, band, max_bytes, p_));
+        return kernel_field(in, plan_.lattice, checked_band_blocks(*grid_, plan_.lattice, band, max_bytes, p_, stats_.max_memory_from));
       });
       stats_.field_blocks = field.block_count();
       extracted = timer_.run("extract", [&] { return extract_surface(field, plan_.iso, plan_.extractor); });
@@ -534,9 +561,19 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
   Result result;
   Stats& stats = result.stats;
   const Attribute* velocity = check_inputs(particles, params);
-  tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
-                              std::size_t(params.threads > 0 ? params.threads : tbb::info::default_concurrency()));
-  Params p = StageTimer(stats, progress).run("parameters", [&] { return resolve_params(particles, params); });
+  const Grant cpus = params.threads > 0 ? Grant{double(params.threads), "--threads"} : granted_threads();
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(cpus.amount));
+  Params given = params;
+  given.threads = int(cpus.amount);
+  stats.threads_from = cpus.source;
+  if (given.max_memory_gb == 0) {
+    const Grant memory = granted_memory();
+    given.max_memory_gb = kMemoryShare * memory.amount / 1e9;
+    stats.max_memory_from = fmt::format("90 % of {}", memory.source);
+  } else {
+    stats.max_memory_from = "--max-memory";
+  }
+  Params p = StageTimer(stats, progress).run("parameters", [&] { return resolve_params(particles, given); });
   stats.spacing_estimated = params.spacing == 0;
   stats.particles = particles.size();
   stats.threads = p.threads;
@@ -572,6 +609,8 @@ std::string stats_to_json(const Result& result) {
   j["removed_blobs"] = s.removed_blobs;
   j["flipped_triangles"] = s.flipped_triangles;
   j["threads"] = s.threads;
+  j["threads_from"] = s.threads_from;
+  j["max_memory_from"] = s.max_memory_from;
   j["backend"] = s.backend;
   j["peak_memory_bytes"] = s.peak_memory_bytes;
   j["total_seconds"] = s.total_seconds();

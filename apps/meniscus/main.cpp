@@ -48,7 +48,8 @@ struct SurfaceArgs {
   std::string frames, field_path;
   std::vector<std::string> columns;
   int jobs = 1;
-  bool quiet = false, drop_invalid = false, fail_fast = false;
+  std::optional<int> estimates_from;  ///< a sequence: the frame the frame-wide estimates are made on
+  bool quiet = false, drop_invalid = false, fail_fast = false, skip_existing = false;
   Params params;
   // Artist controls (README "Artist controls"): config file < preset < smoothness/detail < options.
   std::string config_path, preset;
@@ -65,6 +66,11 @@ void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
   cmd.add_option("--frames", a.frames, "frames of a sequence: 1-240, 1-240:2, 1,5,10-20 (default: every file found)");
   cmd.add_option("--jobs", a.jobs, "frames of a sequence surfaced at once")->check(CLI::PositiveNumber)->capture_default_str();
   cmd.add_flag("--fail-fast", a.fail_fast, "stop a sequence at the first frame that fails");
+  cmd.add_flag("--skip-existing", a.skip_existing,
+               "a sequence: leave out the frames whose mesh exists (a resubmitted job redoes only what failed)");
+  cmd.add_option("--estimates-from", a.estimates_from,
+                 "a sequence: the frame the spacing, rest density and reference speed are estimated on when not "
+                 "given (default: the first of --frames; a job array's tasks all name the sequence's first)");
   cmd.add_option("--spacing", p.spacing, "particle separation d (default: estimated from the particles, see README)")
       ->check(CLI::PositiveNumber);
   cmd.add_option("--voxel-size", p.voxel_size, "field resolution h (default d/2)")->check(CLI::PositiveNumber);
@@ -304,7 +310,9 @@ void print_summary(const SurfaceArgs& a, const FrameFiles& f, const Result& resu
   }
   fmt::print(stderr, "{} particles → {} vertices, {} triangles in {:.3f}s on {}, peak memory {:.0f} MB\n",
              s.particles, s.vertices, s.triangles, s.total_seconds(),
-             s.backend == "cuda" ? std::string("the CUDA device") : fmt::format("{} threads", s.threads),
+             s.backend == "cuda" ? std::string("the CUDA device")
+                                 : fmt::format("{} threads{}", s.threads,
+                                               s.threads_from == "--threads" ? "" : " (" + s.threads_from + ")"),
              double(s.peak_memory_bytes) / 1e6);
   fmt::print(stderr, "  {}\n", stages);
   fmt::print(stderr, "wrote {}{}{}\n", f.output, f.preview.empty() ? "" : ", " + f.preview, f.stats.empty() ? "" : ", " + f.stats);
@@ -381,8 +389,26 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
     *pattern = parse_frame_pattern(*path);
     if (!*pattern) throw InvalidParameter(fmt::format("'{}' needs a frame placeholder in a sequence", *path));
   }
-  const std::vector<int> frames = a.frames.empty() ? discover_frames(in) : parse_frame_ranges(a.frames);
+  std::vector<int> frames = a.frames.empty() ? discover_frames(in) : parse_frame_ranges(a.frames);
   if (frames.empty()) throw InvalidParameter(fmt::format("no frames found for '{}' (give --frames)", a.input));
+  // The frame the estimates come from: named, or the first of the list (also when its mesh exists,
+  // so that a resubmission with --skip-existing estimates what the first submission did).
+  std::vector<int> candidates = a.estimates_from ? std::vector<int>{*a.estimates_from} : frames;
+  std::vector<int> skipped;
+  if (a.skip_existing) {
+    std::erase_if(frames, [&](int frame) {
+      const bool exists = std::filesystem::exists(out->format(frame));
+      if (exists) skipped.push_back(frame);
+      return exists;
+    });
+    if (!a.quiet && !skipped.empty())
+      fmt::print(stderr, "skipping {} frame(s) whose mesh exists (--skip-existing): {}\n", skipped.size(),
+                 format_frame_ranges(skipped));
+    if (frames.empty()) {
+      if (!a.quiet) fmt::print(stderr, "every frame's mesh exists: nothing to do\n");
+      return 0;
+    }
+  }
 
   // The frame-wide estimates (spacing, rest density, reference speed) not given are made on the
   // first frame that reads and used for every frame: re-estimated per frame, a droplet appearing
@@ -391,24 +417,29 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
   const Params& gp = given.params;
   std::size_t first = 0;
   std::optional<ReadFrame> first_frame;
-  for (; first < frames.size() && !first_frame; ++first) {
+  for (; first < candidates.size() && !first_frame; ++first) {
     try {
       const auto t0 = std::chrono::steady_clock::now();
-      ParticleSet particles = read_particles(in.format(frames[first]), read_options(a));
+      ParticleSet particles = read_particles(in.format(candidates[first]), read_options(a));
       first_frame = ReadFrame{std::move(particles), seconds_since(t0)};
-    } catch (const std::exception&) {
+    } catch (const std::exception& e) {
+      if (a.estimates_from)  // a named frame must read: another frame would give other estimates
+        throw IoError(fmt::format("--estimates-from {}: {}", *a.estimates_from, e.what()));
     }
   }
-  --first;
+  const int estimate_frame = candidates[--first];
   if (first_frame) a.params = resolve_frame_estimates(first_frame->particles, gp);
+  // The particles read are surfaced as they are when that frame is one to surface.
+  const auto preread_at = std::find(frames.begin(), frames.end(), estimate_frame);
+  first = std::size_t(preread_at - frames.begin());
   if (!(a.params == gp)) {
-    a.estimated_on = in.format(frames[first]);
+    a.estimated_on = in.format(estimate_frame);
     if (!a.quiet) {
       std::string what = fmt::format("spacing {:.6g}", a.params.spacing);
       if (a.params.rest_density != gp.rest_density) what += fmt::format(", rest density {:.6g}", a.params.rest_density);
       if (a.params.velocity_reference != gp.velocity_reference)
         what += fmt::format(", reference speed {:.6g}", a.params.velocity_reference);
-      fmt::print(stderr, "estimated on frame {} and used for every frame: {}{}\n", frames[first], what,
+      fmt::print(stderr, "estimated on frame {} and used for every frame: {}{}\n", estimate_frame, what,
                  gp.spacing == 0 ? " (set --spacing to override)" : "");
     }
   }
@@ -483,7 +514,10 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
                flicker_sum / double(flicker_count), flicker_count, flicker_max, flicker_seconds);
   if (!a.quiet || !failed.empty())
     fmt::print(stderr, "{} of {} frames surfaced ({} triangles) in {:.2f}s{}{}\n", ok, frames.size(), triangles,
-               seconds_since(t0), failed.empty() ? "" : fmt::format("; failed: {}", fmt::join(failed, ", ")),
+               seconds_since(t0),
+               failed.empty() ? ""
+                              : fmt::format("; failed: {} (run again with --skip-existing, or --frames {})",
+                                            format_frame_ranges(failed), format_frame_ranges(failed)),
                stop ? "; stopped at the first failure (--fail-fast)" : "");
   return failed.empty() ? 0 : kExitRuntime;
 }
@@ -650,13 +684,72 @@ int run_render(const RenderArgs& a) {
 }
 
 struct InspectArgs {
-  std::string mesh, particles, previous;
+  std::string mesh, particles, previous, frames;
   double r_inner = 0, r_outer = 0, spacing = 0, flicker_cap = -1;
-  bool json = false;
+  bool json = false, flicker = false;
 };
+
+/// A finished sequence's meshes (a pattern): each frame's counts and topology and, with --flicker,
+/// the distance of its vertices to the previous frame's surface, as `meniscus surface` measures
+/// it during a run, for sequences surfaced in pieces (a job array's tasks do not see each other's
+/// frames). The search cap: --flicker-cap, else 4 spacings (--spacing, or estimated on the first
+/// frame of --particles), else 16 mean edges of the previous mesh.
+int run_inspect_sequence(const InspectArgs& a, const FramePattern& pattern) {
+  if (!a.previous.empty()) throw InvalidParameter("--previous: a sequence's frames are compared with each other (--flicker)");
+  const std::vector<int> frames = a.frames.empty() ? discover_frames(pattern) : parse_frame_ranges(a.frames);
+  if (frames.empty()) throw InvalidParameter(fmt::format("no frames found for '{}' (give --frames)", a.mesh));
+  double spacing = a.spacing;
+  if (spacing == 0 && !a.particles.empty()) {
+    const auto particles = parse_frame_pattern(a.particles);
+    const std::string first = particles ? particles->format(frames.front()) : a.particles;
+    Params in;
+    spacing = resolve_params(read_particles(first), in).spacing;
+  }
+  nlohmann::ordered_json list = nlohmann::ordered_json::array();
+  std::optional<TriangleMesh> previous;
+  int previous_frame = 0;
+  double flicker_sum = 0, flicker_max = 0;
+  std::size_t pairs = 0, not_watertight = 0;
+  for (const int frame : frames) {
+    const std::string file = pattern.format(frame);
+    TriangleMesh mesh = read_mesh(file);
+    const TopologyReport t = analyze_topology(mesh);
+    not_watertight += t.watertight() ? 0 : 1;
+    nlohmann::ordered_json j = {{"frame", frame}, {"mesh", file}, {"vertices", mesh.vertices.size()},
+                                {"triangles", mesh.triangles.size()}, {"watertight", t.watertight()},
+                                {"components", t.components}};
+    std::string line = fmt::format("frame {}: {} vertices, {} triangles, {}", frame, mesh.vertices.size(),
+                                   mesh.triangles.size(), t.watertight() ? "watertight" : "NOT watertight");
+    if (a.flicker && previous) {
+      double cap = a.flicker_cap == 0 ? INFINITY : a.flicker_cap;
+      if (a.flicker_cap < 0) cap = spacing > 0 ? kFlickerCapSpacings * spacing : kFlickerCapEdges * mean_edge_length(*previous);
+      const SurfaceDistanceReport f = distance_to_surface(mesh.vertices, *previous, cap);
+      j["flicker"] = {{"previous_frame", previous_frame}};
+      j["flicker"].update(flicker_json(f));
+      flicker_sum += f.mean, flicker_max = std::max(flicker_max, f.max), ++pairs;
+      line += fmt::format("; flicker against frame {}: mean {:.4g}, max {:.4g}", previous_frame, f.mean, f.max);
+    }
+    if (!a.json) fmt::print("{}\n", line);
+    list.push_back(std::move(j));
+    if (a.flicker) previous = std::move(mesh), previous_frame = frame;
+  }
+  nlohmann::ordered_json summary = {{"frames", frames.size()}, {"not_watertight", not_watertight}};
+  if (a.flicker) summary["flicker"] = {{"pairs", pairs}, {"mean", pairs ? flicker_sum / double(pairs) : 0.0}, {"max", flicker_max}};
+  if (a.json) {
+    fmt::print("{}\n", nlohmann::ordered_json{{"sequence", a.mesh}, {"summary", summary}, {"frames", list}}.dump(2));
+    return 0;
+  }
+  fmt::print("{} frames, {} not watertight", frames.size(), not_watertight);
+  if (a.flicker) fmt::print("; flicker mean {:.4g} over {} frame pairs, max {:.4g}", pairs ? flicker_sum / double(pairs) : 0.0, pairs, flicker_max);
+  fmt::print("\n");
+  return 0;
+}
 
 /// Quality metrics of any mesh (DESIGN §5), ours or another tool's.
 int run_inspect(const InspectArgs& a) {
+  if (const auto pattern = parse_frame_pattern(a.mesh)) return run_inspect_sequence(a, *pattern);
+  if (!a.frames.empty() || a.flicker)
+    throw InvalidParameter("--frames and --flicker need a mesh pattern with a frame placeholder (mesh_####.ply)");
   const TriangleMesh mesh = read_mesh(a.mesh);
   const TopologyReport t = analyze_topology(mesh);
   const ValenceReport v = valence(mesh);
@@ -782,9 +875,14 @@ int main(int argc, char** argv) {
   add_surface_options(*surface_cmd, surface);
   InspectArgs inspect;
   CLI::App* inspect_cmd = app.add_subcommand("inspect", "quality metrics of a mesh: topology, valence, angles, constraints");
-  inspect_cmd->add_option("mesh", inspect.mesh, "mesh file (.ply, .obj, .vtk, .bgeo)")->required();
+  inspect_cmd->add_option("mesh", inspect.mesh, "mesh file (.ply, .obj, .vtk, .bgeo), or a sequence pattern (mesh_####.ply)")
+      ->required();
+  inspect_cmd->add_option("--frames", inspect.frames, "frames of a sequence: 1-240, 1-240:2, 1,5,10-20 (default: all found)");
+  inspect_cmd->add_flag("--flicker", inspect.flicker,
+                        "a sequence: each frame's flicker against the one before it in the list (as surface measures it)");
   inspect_cmd->add_option("--particles", inspect.particles, "the particles it was made from: constraint residual, "
-                                                            "particles left outside");
+                                                            "particles left outside (a sequence: the spacing for "
+                                                            "the flicker cap, estimated on the first frame)");
   inspect_cmd->add_option("--spacing", inspect.spacing, "particle spacing (default: estimated)")->check(CLI::PositiveNumber);
   inspect_cmd->add_option("--r-inner", inspect.r_inner, "inner constraint radius (default 0.5 r_outer)")
       ->check(CLI::PositiveNumber);

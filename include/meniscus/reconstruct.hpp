@@ -52,6 +52,8 @@ struct Stats {
   std::size_t flipped_triangles = 0;   ///< triangles whose normal reversed during erosion
   std::size_t peak_memory_bytes = 0;   ///< peak resident set size of the process
   int threads = 0;
+  std::string threads_from;            ///< where the thread count came from: --threads, the CPU affinity, Slurm
+  std::string max_memory_from;         ///< where the memory limit came from: --max-memory, RAM, a cgroup, Slurm
   std::string backend = "cpu";         ///< the backend that ran the stages: "cpu" or "cuda"
   bool spacing_estimated = false;
   /// A sequence's frame: the file its frame-wide estimates (spacing, rest density, reference

@@ -27,6 +27,10 @@ std::optional<FramePattern> parse_frame_pattern(const std::string& path);
 /// more than 10 million frames.
 std::vector<int> parse_frame_ranges(const std::string& spec);
 
+/// The frames as the shortest list parse_frame_ranges() reads back: {1,2,3,4,7} → "1-4,7"
+/// (runs of consecutive frames joined; the order kept).
+std::string format_frame_ranges(const std::vector<int>& frames);
+
 /// The frames whose files exist on disk for this pattern, sorted.
 std::vector<int> discover_frames(const FramePattern& pattern);
 

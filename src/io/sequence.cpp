@@ -106,6 +106,18 @@ std::vector<int> parse_frame_ranges(const std::string& spec) {
   return frames;
 }
 
+std::string format_frame_ranges(const std::vector<int>& frames) {
+  std::string text;
+  for (std::size_t i = 0; i < frames.size();) {
+    std::size_t j = i;
+    while (j + 1 < frames.size() && frames[j + 1] == frames[j] + 1) ++j;
+    if (!text.empty()) text += ',';
+    text += j == i ? std::to_string(frames[i]) : std::to_string(frames[i]) + "-" + std::to_string(frames[j]);
+    i = j + 1;
+  }
+  return text;
+}
+
 std::vector<int> discover_frames(const FramePattern& pattern) {
   namespace fs = std::filesystem;
   const fs::path prefix(pattern.prefix);

@@ -58,5 +58,14 @@ TEST(FramePattern, DiscoversTheFramesOnDisk) {
   EXPECT_EQ(discover_frames(*p), (std::vector<int>{1, 3, 10}));
 }
 
+TEST(FrameRanges, FormatsRunsThatParseBack) {
+  EXPECT_EQ(format_frame_ranges({}), "");
+  EXPECT_EQ(format_frame_ranges({7}), "7");
+  EXPECT_EQ(format_frame_ranges({1, 2, 3, 4, 7}), "1-4,7");
+  EXPECT_EQ(format_frame_ranges({3, 5, 6, 10}), "3,5-6,10");
+  for (const std::vector<int>& frames : {std::vector<int>{1, 2, 3, 9, 10, 12}, std::vector<int>{40, 41, 2}})
+    EXPECT_EQ(parse_frame_ranges(format_frame_ranges(frames)), frames);
+}
+
 }  // namespace
 }  // namespace meniscus

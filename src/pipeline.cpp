@@ -608,6 +608,7 @@ std::string stats_to_json(const Result& result) {
   j["removed_voids"] = s.removed_voids;
   j["removed_blobs"] = s.removed_blobs;
   j["flipped_triangles"] = s.flipped_triangles;
+  j["ranks"] = 1;  // one process (an MPI run over K ranks says K: docs/cluster.md)
   j["threads"] = s.threads;
   j["threads_from"] = s.threads_from;
   j["max_memory_from"] = s.max_memory_from;

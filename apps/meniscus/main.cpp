@@ -32,6 +32,7 @@
 #include "meniscus/reconstruct.hpp"
 #include "meniscus/render.hpp"
 #include "meniscus/sequence.hpp"
+#include "mpi_surface.hpp"
 #include "progress.hpp"
 
 namespace {
@@ -522,7 +523,21 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
   return failed.empty() ? 0 : kExitRuntime;
 }
 
-int run_surface(const CLI::App& cmd, SurfaceArgs& a) {
+/// One frame over the ranks of an MPI job (mpirun, srun --mpi=pmix): docs/cluster.md.
+int run_surface_ranks(const cli::MpiSession& mpi, const SurfaceArgs& a) {
+  if (parse_frame_pattern(a.input))
+    throw InvalidParameter("a sequence under an MPI launcher: surface its frames as a job array (docs/cluster.md); "
+                           "MPI spreads one frame over the ranks");
+  if (!a.preview_path.empty() || !a.field_path.empty())
+    throw InvalidParameter("--preview and --save-field are not available over MPI ranks: render the mesh afterwards "
+                           "(meniscus render)");
+  cli::MpiJob job{a.input, a.output, a.stats_path, a.params, read_options(a), a.quiet || mpi.rank() != 0};
+  if (!a.stats_path.empty()) make_parent_dirs(a.stats_path);
+  make_parent_dirs(a.output);
+  return cli::run_surface_mpi(mpi, job);
+}
+
+int run_surface(const CLI::App& cmd, SurfaceArgs& a, const cli::MpiSession& mpi) {
   a.params.extract = parse_extractor(a.extract);
   a.params.solver = parse_solver(a.solver);
   a.params.backend = parse_backend(a.backend);
@@ -535,6 +550,12 @@ int run_surface(const CLI::App& cmd, SurfaceArgs& a) {
   if (!a.field_path.empty() && !has_openvdb())
     throw InvalidParameter("--save-field: this meniscus was built without OpenVDB (install libopenvdb-dev and rebuild)");
   if (a.jobs < 1) throw InvalidParameter(fmt::format("jobs = {}: must be ≥ 1", a.jobs));
+  if (mpi.active()) return run_surface_ranks(mpi, a);
+  if (cli::launched_ranks() > 1)
+    throw InvalidParameter(fmt::format("started by an MPI launcher as one of {} processes, but this meniscus was built "
+                                       "without MPI: each would surface the whole frame (install libopenmpi-dev and "
+                                       "rebuild, or run one process)",
+                                       cli::launched_ranks()));
   if (const auto pattern = parse_frame_pattern(a.input)) return run_sequence(a, *pattern);
   if (!a.frames.empty()) throw InvalidParameter("--frames needs an input pattern with a frame placeholder (####, {} or %04d)");
 
@@ -856,6 +877,8 @@ int run_info() {
                  d.minor, double(d.total_memory) / 1e9, double(d.free_memory) / 1e9);
   }
   fmt::print("openvdb: {}\n", has_openvdb() ? "yes (--save-field writes .vdb level sets)" : "no");
+  fmt::print("mpi: {}\n", cli::mpi_built() ? "yes (mpirun -n K meniscus surface spreads one frame over K ranks)"
+                                            : "no (built without MPI)");
   fmt::print("particle formats: {}\n", fmt::join(particle_formats(), " "));
   fmt::print("mesh formats: {}\n", fmt::join(mesh_formats(), " "));
   fmt::print("extractors: tiles cubes tetrahedra\n");
@@ -865,6 +888,8 @@ int run_info() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  const meniscus::cli::MpiSession mpi(&argc, &argv);  // MPI_Init where an MPI launcher started us
+  const bool quiet_rank = mpi.active() && mpi.rank() != 0;  // messages come from rank 0
   meniscus::release_large_blocks_eagerly();  // a lower peak: freed stage arrays leave the process
   meniscus::reuse_freed_blocks_between_stages();  // except up to the smoothing, where they serve the next stage
   CLI::App app{"meniscus — smooth, watertight meshes from fluid particles (Williams' constrained smoothing)"};
@@ -921,15 +946,15 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : kExitUsage;  // --help is not an error; every bad option is
   }
   try {
-    if (surface_cmd->parsed()) return run_surface(*surface_cmd, surface);
+    if (surface_cmd->parsed()) return run_surface(*surface_cmd, surface, mpi);
     if (info_cmd->parsed()) return run_info();
     if (render_cmd->parsed()) return run_render(render);
     if (inspect_cmd->parsed()) return run_inspect(inspect);
   } catch (const meniscus::InvalidParameter& e) {
-    fmt::print(stderr, "meniscus: error: {}\n", e.what());
+    if (!quiet_rank) fmt::print(stderr, "meniscus: error: {}\n", e.what());
     return kExitUsage;
   } catch (const std::exception& e) {
-    fmt::print(stderr, "meniscus: error: {}\n", e.what());
+    if (!quiet_rank) fmt::print(stderr, "meniscus: error: {}\n", e.what());
     return kExitRuntime;
   }
   return 0;

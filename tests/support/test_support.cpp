@@ -25,6 +25,28 @@ ParticleSet lattice_block(int nx, int ny, int nz, float d, float jitter, uint32_
   return ps;
 }
 
+ParticleSet wide_splash(std::size_t count, float d) {
+  const int depth = std::max(2, int(std::lround(std::cbrt(double(count) * 0.8 / 64.0))));
+  ParticleSet ps = lattice_block(16 * depth, 4 * depth, depth, d, 0.1f, 7);
+  std::mt19937 rng(11);
+  const float top = float(depth - 1) * d;
+  std::uniform_real_distribution<float> ux(2 * d, float(16 * depth - 3) * d), uy(2 * d, float(4 * depth - 3) * d),
+      uz(top + 3 * d, top + float(4 * depth) * d);
+  std::uniform_int_distribution<int> size(1, 30);
+  std::normal_distribution<float> jitter(0.0f, 0.05f * d);
+  while (ps.positions.size() < count) {
+    const Vec3f c{ux(rng), uy(rng), uz(rng)};
+    const int m = std::min<int>(size(rng), int(count - ps.positions.size()));
+    const int r = int(std::ceil(std::cbrt(3.0 * m / (4.0 * 3.14159265358979)) + 0.5));
+    int placed = 0;
+    for (int k = -r; k <= r && placed < m; ++k)
+      for (int j = -r; j <= r && placed < m; ++j)
+        for (int i = -r; i <= r && placed < m; ++i, ++placed)
+          ps.positions.push_back(c + Vec3f{float(i) * d + jitter(rng), float(j) * d + jitter(rng), float(k) * d + jitter(rng)});
+  }
+  return ps;
+}
+
 ParticleSet lattice_ball(float R, float d, Vec3f center) {
   ParticleSet ps;
   const int n = int(R / d) + 1;

@@ -21,6 +21,11 @@ ParticleSet lattice_block(int nx, int ny, int nz, float d, float jitter = 0, uin
 /// Particles of a lattice of spacing d that lie inside a ball of radius R around `center`.
 ParticleSet lattice_ball(float R, float d, Vec3f center = {0, 0, 0});
 
+/// A wide, shallow splash of about `count` particles, as shots are: a pool 16 : 4 : 1 (x long)
+/// on a jittered lattice with 80 % of the particles, droplets of 1-30 particles over it up to
+/// four pool depths high. Same count + d → same particles.
+ParticleSet wide_splash(std::size_t count, float d = 0.01f);
+
 /// A ball of concentric spherical shells of particles, the outermost at exactly radius R, each
 /// shell a Fibonacci lattice with neighbour distance ≈ d, shells d apart.
 ParticleSet shell_ball(float R, float d, Vec3f center = {0, 0, 0});

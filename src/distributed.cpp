@@ -143,8 +143,13 @@ TriangleMesh owned_piece(const TriangleMesh& mesh, const Decomposition& d, int r
   return out;
 }
 
-TriangleMesh weld_pieces(const std::vector<TriangleMesh>& pieces, float cell) {
-  const float inv_cell = 1.0f / cell;
+TriangleMesh weld_pieces(const std::vector<TriangleMesh>& pieces) {
+  // The Z-order's grid: 1024 cells across the pieces' box, which does not depend on the cut.
+  Vec3f lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+  for (const TriangleMesh& m : pieces)
+    for (const Vec3f& x : m.vertices) lo = min(lo, x), hi = max(hi, x);
+  const float extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, 0.0f});
+  const float inv_cell = extent > 0 && std::isfinite(extent) ? 1024.0f / extent : 1.0f;
   struct Entry {
     VertexKey key;
     uint32_t piece, index;

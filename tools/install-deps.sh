@@ -18,7 +18,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   clang libclang-rt-14-dev
   python3 python3-numpy python3-meshio python3-vtk9 python3-dev python3-pytest pybind11-dev
-  slurm-wlm munge
+  slurm-wlm munge openmpi-bin libopenmpi-dev
 )
 if [[ $with_blender == 1 ]]; then packages+=(blender); fi
 export DEBIAN_FRONTEND=noninteractive

@@ -19,4 +19,9 @@ int launched_ranks() {
   return 0;
 }
 
+std::string piece_path(const std::string& index, int rank) {
+  const std::string stem = index.size() > 5 && index.ends_with(".pvtp") ? index.substr(0, index.size() - 5) : index;
+  return stem + "_" + std::to_string(rank) + ".vtp";
+}
+
 }  // namespace meniscus::cli

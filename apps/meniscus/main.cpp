@@ -25,6 +25,7 @@
 #include "io/atomic_file.hpp"
 #include "meniscus/backend.hpp"
 #include "meniscus/config.hpp"
+#include "meniscus/distributed.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
 #include "meniscus/memory.hpp"
@@ -50,7 +51,7 @@ struct SurfaceArgs {
   std::vector<std::string> columns;
   int jobs = 1;
   std::optional<int> estimates_from;  ///< a sequence: the frame the frame-wide estimates are made on
-  bool quiet = false, drop_invalid = false, fail_fast = false, skip_existing = false;
+  bool quiet = false, drop_invalid = false, fail_fast = false, skip_existing = false, pieces = false;
   Params params;
   // Artist controls (README "Artist controls"): config file < preset < smoothness/detail < options.
   std::string config_path, preset;
@@ -67,6 +68,9 @@ void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
   cmd.add_option("--frames", a.frames, "frames of a sequence: 1-240, 1-240:2, 1,5,10-20 (default: every file found)");
   cmd.add_option("--jobs", a.jobs, "frames of a sequence surfaced at once")->check(CLI::PositiveNumber)->capture_default_str();
   cmd.add_flag("--fail-fast", a.fail_fast, "stop a sequence at the first frame that fails");
+  cmd.add_flag("--pieces", a.pieces,
+               "over MPI ranks, -o X.pvtp: each rank writes its piece X_<rank>.vtp and rank 0 the ParaView index "
+               "(meniscus merge X.pvtp -o X.ply welds them)");
   cmd.add_flag("--skip-existing", a.skip_existing,
                "a sequence: leave out the frames whose mesh exists (a resubmitted job redoes only what failed)");
   cmd.add_option("--estimates-from", a.estimates_from,
@@ -531,7 +535,10 @@ int run_surface_ranks(const cli::MpiSession& mpi, const SurfaceArgs& a) {
   if (!a.preview_path.empty() || !a.field_path.empty())
     throw InvalidParameter("--preview and --save-field are not available over MPI ranks: render the mesh afterwards "
                            "(meniscus render)");
-  cli::MpiJob job{a.input, a.output, a.stats_path, a.params, read_options(a), a.quiet || mpi.rank() != 0};
+  if (a.pieces && !a.output.ends_with(".pvtp"))
+    throw InvalidParameter(fmt::format("--pieces: the output '{}' must be the .pvtp index of the pieces (big.pvtp → "
+                                       "big_0.vtp, big_1.vtp …)", a.output));
+  cli::MpiJob job{a.input, a.output, a.stats_path, a.params, read_options(a), a.quiet || mpi.rank() != 0, a.pieces};
   if (!a.stats_path.empty()) make_parent_dirs(a.stats_path);
   make_parent_dirs(a.output);
   return cli::run_surface_mpi(mpi, job);
@@ -546,7 +553,9 @@ int run_surface(const CLI::App& cmd, SurfaceArgs& a, const cli::MpiSession& mpi)
   if (a.detail && cmd.count("--voxel-size") && !a.quiet)
     fmt::print(stderr, "warning: --detail is ignored: --voxel-size {:g} is given\n", a.params.voxel_size);
   a.params.validate();
-  check_output_format(a.output);  // refuse an unknown format before any work is done
+  if (a.pieces && !mpi.active())
+    throw InvalidParameter("--pieces: one piece per MPI rank; run under mpirun or srun --mpi=pmix (docs/cluster.md)");
+  if (!a.pieces) check_output_format(a.output);  // refuse an unknown format before any work is done
   if (!a.field_path.empty() && !has_openvdb())
     throw InvalidParameter("--save-field: this meniscus was built without OpenVDB (install libopenvdb-dev and rebuild)");
   if (a.jobs < 1) throw InvalidParameter(fmt::format("jobs = {}: must be ≥ 1", a.jobs));
@@ -564,6 +573,60 @@ int run_surface(const CLI::App& cmd, SurfaceArgs& a, const cli::MpiSession& mpi)
   const Result result = surface_one(a, f, !a.quiet, [&](std::string_view stage, double fraction) { bar.update(stage, fraction); });
   bar.finish();
   if (!a.quiet) print_summary(a, f, result);
+  return 0;
+}
+
+struct MergeArgs {
+  std::vector<std::string> inputs;
+  std::string output;
+  bool quiet = false;
+};
+
+/// The piece files an index names (`<Piece Source="…"/>`, relative to the index's folder).
+std::vector<std::string> pvtp_pieces(const std::string& index) {
+  const std::string text = read_text_file(index);
+  std::vector<std::string> out;
+  const std::filesystem::path dir = std::filesystem::path(index).parent_path();
+  for (std::size_t at = text.find("<Piece"); at != std::string::npos; at = text.find("<Piece", at + 1)) {
+    const std::size_t s = text.find("Source=\"", at), e = s == std::string::npos ? s : text.find('"', s + 8);
+    const std::size_t end = text.find('>', at);
+    if (s == std::string::npos || e == std::string::npos || s > end)
+      throw FormatError(index, fmt::format("byte {}", at), "expected <Piece Source=\"…\"/>");
+    out.push_back((dir / text.substr(s + 8, e - s - 8)).string());
+  }
+  if (out.empty()) throw FormatError(index, "", "expected <Piece Source=\"…\"/> entries in the .pvtp index");
+  return out;
+}
+
+/// Welds pieces (a .pvtp index, or mesh files) into one mesh by their coincident seam vertices.
+int run_merge(const MergeArgs& a) {
+  check_output_format(a.output);
+  std::vector<std::string> files;
+  for (const std::string& in : a.inputs) {
+    if (in.ends_with(".pvtp")) {
+      const std::vector<std::string> listed = pvtp_pieces(in);
+      files.insert(files.end(), listed.begin(), listed.end());
+    } else {
+      files.push_back(in);
+    }
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<TriangleMesh> pieces;
+  std::size_t vertices = 0;
+  for (const std::string& f : files) {
+    pieces.push_back(read_mesh(f));
+    vertices += pieces.back().vertices.size();
+  }
+  const TriangleMesh mesh = weld_pieces(pieces);
+  pieces.clear();
+  make_parent_dirs(a.output);
+  write_mesh(a.output, mesh);
+  if (!a.quiet) {
+    const TopologyReport t = analyze_topology(mesh);
+    fmt::print(stderr, "merged {} pieces: {} vertices ({} on seams welded), {} triangles, {} in {:.3f}s\nwrote {}\n",
+               files.size(), mesh.vertices.size(), vertices - mesh.vertices.size(), mesh.triangles.size(),
+               t.watertight() ? "watertight" : "NOT watertight", seconds_since(t0), a.output);
+  }
   return 0;
 }
 
@@ -920,6 +983,11 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   inspect_cmd->add_flag("--json", inspect.json, "print the metrics as JSON");
   CLI::App* info_cmd = app.add_subcommand("info", "version, backends, threads and formats");
+  MergeArgs merge;
+  CLI::App* merge_cmd = app.add_subcommand("merge", "weld mesh pieces (an MPI run's .pvtp, or mesh files) into one mesh");
+  merge_cmd->add_option("pieces", merge.inputs, "a .pvtp index, or the piece files")->required();
+  merge_cmd->add_option("-o,--output", merge.output, "mesh file to write")->required();
+  merge_cmd->add_flag("-q,--quiet", merge.quiet, "print nothing");
   RenderArgs render;
   CLI::App* render_cmd = app.add_subcommand("render", "preview picture (.png) of a mesh or a mesh sequence");
   render_cmd->add_option("mesh", render.mesh, "mesh file, or a sequence pattern (mesh_####.ply): one tile per frame")
@@ -948,6 +1016,7 @@ int main(int argc, char** argv) {
   try {
     if (surface_cmd->parsed()) return run_surface(*surface_cmd, surface, mpi);
     if (info_cmd->parsed()) return run_info();
+    if (merge_cmd->parsed()) return run_merge(merge);
     if (render_cmd->parsed()) return run_render(render);
     if (inspect_cmd->parsed()) return run_inspect(inspect);
   } catch (const meniscus::InvalidParameter& e) {

@@ -12,12 +12,14 @@
 #include <cstdint>
 #include <cstring>
 #include <exception>
+#include <filesystem>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "io/atomic_file.hpp"
+#include "io/vtu.hpp"
 #include "meniscus/distributed.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/reconstruct.hpp"
@@ -270,23 +272,33 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
   report.owned_triangles = double(piece.triangles.size());
   if (!all_ok(error, rank)) return 1;
 
-  // Gather the pieces and the reports on rank 0.
+  // --pieces: every rank writes its own; rank 0 the index.
   const auto t3 = std::chrono::steady_clock::now();
   std::vector<TriangleMesh> pieces;
-  if (rank == 0) {
+  if (job.pieces) {
+    error = attempt([&] { io::write_vtp_mesh(piece_path(job.output, rank), piece); });
+    if (!all_ok(error, rank)) return 1;
+    if (rank == 0) {
+      std::vector<std::string> names;
+      for (int r = 0; r < ranks; ++r) names.push_back(std::filesystem::path(piece_path(job.output, r)).filename().string());
+      error = attempt([&] { io::write_pvtp_index(job.output, names, piece); });
+    }
+    if (!all_ok(error, rank)) return 1;
+    piece = {};
+  } else if (rank == 0) {
     pieces.push_back(std::move(piece));
     for (int r = 1; r < ranks; ++r) pieces.push_back(unpack_mesh(receive_bytes(r, kPiece)));
   } else {
     send_bytes(pack(piece), 0, kPiece);
     piece = {};
   }
+  stages.emplace_back(job.pieces ? "write_pieces" : "gather", seconds_since(t3));
   report.peak_bytes = double(peak_rss_bytes());
   std::vector<RankReport> reports(static_cast<std::size_t>(ranks));
   MPI_Gather(&report, 5, MPI_DOUBLE, reports.data(), 5, MPI_DOUBLE, 0, MPI_COMM_WORLD);
   double slowest = 0;
   for (const RankReport& r : reports) slowest = std::max(slowest, r.surface_seconds);
-  stages.emplace_back("surface", slowest);
-  stages.emplace_back("gather", seconds_since(t3));
+  stages.insert(stages.end() - 1, {"surface", slowest});
 
   // Rank 0 welds and writes.
   int code = 0;
@@ -294,12 +306,18 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
     error = attempt([&] {
       const auto t4 = std::chrono::steady_clock::now();
       const Params p = result.params.spacing > 0 ? result.params : resolve_params(ParticleSet{{Vec3f{}}, {}}, given);
-      const TriangleMesh mesh = weld_pieces(pieces, plan_stages(p).lattice.cell_size);
-      pieces.clear();
-      stages.emplace_back("weld", seconds_since(t4));
-      const auto t5 = std::chrono::steady_clock::now();
-      write_mesh(job.output, mesh);
-      stages.emplace_back("write", seconds_since(t5));
+      TriangleMesh mesh;
+      if (job.pieces) {
+        for (const RankReport& r : reports) mesh.triangles.resize(mesh.triangles.size() + std::size_t(r.owned_triangles));
+        for (const RankReport& r : reports) mesh.vertices.resize(mesh.vertices.size() + std::size_t(r.owned_vertices));
+      } else {
+        mesh = weld_pieces(pieces);
+        pieces.clear();
+        stages.emplace_back("weld", seconds_since(t4));
+        const auto t5 = std::chrono::steady_clock::now();
+        write_mesh(job.output, mesh);
+        stages.emplace_back("write", seconds_since(t5));
+      }
       double total = 0, peak = 0;
       for (const auto& [name, s] : stages) total += s;
       for (const RankReport& r : reports) peak = std::max(peak, r.peak_bytes);
@@ -316,7 +334,11 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
           fmt::print(stderr, "  rank {}: {:.0f} particles with its halo, owns {:.0f} triangles, surfaced in {:.3f}s, peak {:.0f} MB\n",
                      r, q.particles, q.owned_triangles, q.surface_seconds, q.peak_bytes / 1e6);
         }
-        fmt::print(stderr, "wrote {}{}\n", job.output, job.stats.empty() ? "" : ", " + job.stats);
+        fmt::print(stderr, "wrote {}{}{}\n", job.output,
+                   job.pieces ? fmt::format(" and its {} pieces {} … (vertices counted per piece: the seams twice)",
+                                            ranks, piece_path(job.output, 0))
+                              : "",
+                   job.stats.empty() ? "" : ", " + job.stats);
       }
       if (!job.stats.empty()) {
         Result summary;

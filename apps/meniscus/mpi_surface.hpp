@@ -39,7 +39,13 @@ struct MpiJob {
   Params params;
   ReadOptions read;
   bool quiet = false;
+  /// Each rank writes its piece beside the output (`X.pvtp` → `X_0.vtp` …) and rank 0 the
+  /// `.pvtp` index instead of gathering and welding (`meniscus merge X.pvtp -o X.ply` welds them).
+  bool pieces = false;
 };
+
+/// The file of rank `rank`'s piece for an index `X.pvtp`: `X_<rank>.vtp` beside it.
+std::string piece_path(const std::string& index, int rank);
 
 /// Surfaces one frame over the session's ranks; every rank returns the job's exit code (0, or 1
 /// when any rank failed: each failure is printed by the rank that had it, naming its rank).

@@ -47,12 +47,12 @@ TriangleMesh owned_piece(const TriangleMesh& mesh, const Decomposition& d, int r
 
 /// Welds pieces into one mesh: vertices that coincide bit for bit are one vertex (the seams' are
 /// computed identically by every rank that has them). The result is in a canonical order —
-/// vertices by their Z-order on a grid of `cell` anchored at the origin (ties: by coordinates),
+/// vertices by their Z-order on a grid of 1024 cells across the pieces' box (ties: by coordinates),
 /// triangles by their smallest vertex, then the others — so it does not depend on how the frame was
 /// cut: canonical(whole-frame mesh) = weld(pieces). Normals, when the pieces have them, are
 /// computed again on the welded mesh (they equal the pieces' to rounding: a vertex's sum over its
 /// triangles then runs in one order whatever the cut). Throws InvalidParameter when two vertices of
 /// one piece coincide (their identity would be lost) or pieces disagree on a vertex's attributes.
-TriangleMesh weld_pieces(const std::vector<TriangleMesh>& pieces, float cell);
+TriangleMesh weld_pieces(const std::vector<TriangleMesh>& pieces);
 
 }  // namespace meniscus

@@ -44,6 +44,7 @@ const std::vector<MeshReader>& mesh_readers() {
       {"bgeo", {".bgeo"}, &sniff_bgeo_classic, &read_bgeo_classic_mesh},
       {"vtk", {".vtk"}, &sniff_vtk_legacy, &read_vtk_legacy_mesh},
       {"obj", {".obj"}, nullptr, &read_obj_mesh},
+      {"vtp", {".vtp"}, &sniff_vtu, &read_vtp_mesh},
   };
   return table;
 }
@@ -54,6 +55,7 @@ const std::vector<MeshWriter>& mesh_writers() {
       {"bgeo", {".bgeo"}, &write_bgeo_mesh},
       {"obj", {".obj"}, &write_obj_mesh},
       {"vtk", {".vtk"}, &write_vtk_legacy_mesh},
+      {"vtp", {".vtp"}, &write_vtp_mesh},
       {"usda", {".usda"}, &write_usda_mesh},
   };
   return table;

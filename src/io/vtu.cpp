@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cstring>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -205,10 +206,11 @@ struct ArrayRef {
 };
 
 struct Piece {
-  uint64_t points = 0;
+  uint64_t points = 0, polys = 0;
   std::size_t at = 0;
   std::optional<ArrayRef> positions;
   std::vector<ArrayRef> point_data;
+  std::optional<ArrayRef> connectivity, offsets;  // <Polys> of a .vtp
 };
 
 struct FileInfo {
@@ -265,6 +267,47 @@ class VtuReader {
     return particles;
   }
 
+  /// A .vtp of triangles: the points and point data as read(), the <Polys> as triangles (each
+  /// must have three corners); "Normals" (3 components) become the normals.
+  TriangleMesh read_mesh() {
+    TriangleMesh mesh;
+    ParticleSet points = read(nullptr);
+    mesh.vertices = std::move(points.positions);
+    std::size_t base = 0;
+    for (const Piece& piece : pieces_) {
+      if (piece.polys > 0 && (!piece.connectivity || !piece.offsets))
+        errors_.fail_at(piece.at, "expected <Polys> DataArrays 'connectivity' and 'offsets'");
+      if (piece.polys > 0) {
+        const std::vector<double> offsets = values(*piece.offsets, piece.polys, 1);
+        const std::vector<double> corners = values(*piece.connectivity, 3 * piece.polys, 1);
+        for (uint64_t t = 0; t < piece.polys; ++t) {
+          if (offsets[t] != double(3 * (t + 1)))
+            errors_.fail_at(piece.offsets->at, fmt::format("polygon {} is not a triangle (offset {}, expected {})", t,
+                                                           offsets[t], 3 * (t + 1)));
+          Triangle tri{};
+          for (int c = 0; c < 3; ++c) {
+            const double v = corners[3 * t + std::size_t(c)];
+            if (!(v >= 0 && v < double(piece.points)))
+              errors_.fail_at(piece.connectivity->at,
+                              fmt::format("triangle {} refers to point {}, but the piece has {}", t, v, piece.points));
+            tri[std::size_t(c)] = uint32_t(base + std::size_t(v));
+          }
+          mesh.triangles.push_back(tri);
+        }
+      }
+      base += std::size_t(piece.points);
+    }
+    for (Attribute& a : points.attributes)
+      if (a.name == "Normals" && a.components == 3 && mesh.normals.empty()) {
+        mesh.normals.resize(mesh.vertices.size());
+        for (std::size_t v = 0; v < mesh.normals.size(); ++v)
+          mesh.normals[v] = {a.values[3 * v], a.values[3 * v + 1], a.values[3 * v + 2]};
+      } else {
+        mesh.attributes.push_back(std::move(a));
+      }
+    return mesh;
+  }
+
  private:
   void scan() {
     TagScanner scanner(text_, errors_);
@@ -285,7 +328,17 @@ class VtuReader {
         Piece piece;
         piece.at = tag->at;
         piece.points = count_attribute(*tag, "NumberOfPoints");
+        if (tag->get("NumberOfPolys")) piece.polys = count_attribute(*tag, "NumberOfPolys");
         pieces_.push_back(std::move(piece));
+      } else if (tag->name == "DataArray" && !open.empty() && !pieces_.empty() && open.back() == "Polys") {
+        ArrayRef a = array(*tag);
+        if (!tag->self_closing) {
+          const std::size_t close = text_.find("</DataArray", tag->end);
+          if (close == std::string_view::npos) errors_.fail_at(tag->at, "expected </DataArray>");
+          a.content = text_.substr(tag->end, close - tag->end);
+        }
+        if (a.name == "connectivity") pieces_.back().connectivity = std::move(a);
+        else if (a.name == "offsets") pieces_.back().offsets = std::move(a);
       } else if (tag->name == "DataArray" && !open.empty() && !pieces_.empty() &&
                  (open.back() == "Points" || open.back() == "PointData")) {
         ArrayRef a = array(*tag);
@@ -590,5 +643,7 @@ bool sniff_vtu(ByteView bytes) {
 ParticleSet read_vtu_particles(const Source& source, const ReadOptions& /*options*/, ReadReport* report) {
   return VtuReader(source).read(report);
 }
+
+TriangleMesh read_vtp_mesh(const Source& source) { return VtuReader(source).read_mesh(); }
 
 }  // namespace meniscus::io

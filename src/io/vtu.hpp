@@ -16,4 +16,19 @@ bool sniff_vtu(ByteView bytes);
 /// allocation. Throws FormatError naming the byte offset (of the decoded file) on malformed input.
 ParticleSet read_vtu_particles(const Source& source, const ReadOptions& options, ReadReport* report);
 
+/// A VTK XML PolyData (.vtp) mesh of triangles: the points and point data as above, every
+/// <Piece>'s <Polys> (connectivity, offsets; each polygon a triangle) the triangles, a 3-component
+/// point array "Normals" the normals. Throws FormatError as above, also for a polygon that is not
+/// a triangle or a corner out of range.
+TriangleMesh read_vtp_mesh(const Source& source);
+
+/// Writes a mesh as VTK XML PolyData (.vtp, ParaView): Float32 points, Int64 connectivity and
+/// offsets, "Normals" and every attribute as point data, in one raw appended block with UInt64
+/// headers. Atomic.
+void write_vtp_mesh(const std::string& path, const TriangleMesh& mesh);
+
+/// Writes a parallel PolyData index (.pvtp, ParaView's convention for pieces written by several
+/// processes) naming `pieces` (paths relative to the index), with the point arrays of `layout`.
+void write_pvtp_index(const std::string& path, const std::vector<std::string>& pieces, const TriangleMesh& layout);
+
 }  // namespace meniscus::io

@@ -36,6 +36,7 @@ TEST(CliScheduler, ThreadsComeFromSlurmAndTheAffinity) {
                           tmp.file("m.ply") + " --stats " + tmp.file("s.json");
   ASSERT_EQ(run_command("SLURM_CPUS_PER_TASK=1 " + job, &out), 0) << out;
   auto j = json_file(tmp.file("s.json"));
+  EXPECT_EQ(j["ranks"], 1) << "one process";
   EXPECT_EQ(j["threads"], 1);
   if (std::thread::hardware_concurrency() > 1) {
     EXPECT_EQ(j["threads_from"], "SLURM_CPUS_PER_TASK");
@@ -49,6 +50,14 @@ TEST(CliScheduler, ThreadsComeFromSlurmAndTheAffinity) {
   }
   ASSERT_EQ(run_command(job + " --threads 1", &out), 0) << out;
   EXPECT_EQ(json_file(tmp.file("s.json"))["threads_from"], "--threads");
+  ASSERT_EQ(run_command(cli() + " info", &out), 0) << out;
+  EXPECT_NE(out.find("\nmpi: "), std::string::npos) << out;
+  // Started by an MPI launcher as one of several processes, a build without MPI refuses rather
+  // than have every process surface the whole frame; one with MPI says it has it.
+  if (out.find("\nmpi: no") != std::string::npos) {
+    EXPECT_EQ(run_command("OMPI_COMM_WORLD_SIZE=4 " + job, &out), 2) << out;
+    EXPECT_NE(out.find("built without MPI"), std::string::npos) << out;
+  }
 }
 
 // A grant below what the frame needs is refused before the field is allocated, with a message

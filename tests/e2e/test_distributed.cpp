@@ -35,7 +35,6 @@ Split expect_split_matches(const ParticleSet& particles, Params given, int ranks
                            const std::string& what) {
   given = resolve_frame_estimates(particles, given);
   const Params p = resolve_params(particles, given);
-  const float cell = plan_stages(p).lattice.cell_size;
   const Decomposition d = decompose(particles, p, ranks);
   EXPECT_EQ(int(d.cuts.size()), ranks - 1) << what;
   EXPECT_GE(d.halo, local_reach(p)) << what;
@@ -51,7 +50,7 @@ Split expect_split_matches(const ParticleSet& particles, Params given, int ranks
     pieces.push_back(owned_piece(reconstruct(slab, given).mesh, d, r));
     s.piece_triangles += pieces.back().triangles.size();
   }
-  const TriangleMesh canonical = weld_pieces({whole}, cell), merged = weld_pieces(pieces, cell);
+  const TriangleMesh canonical = weld_pieces({whole}), merged = weld_pieces(pieces);
   EXPECT_EQ(merged.vertices.size(), whole.vertices.size()) << what;
   EXPECT_EQ(merged.triangles.size(), whole.triangles.size()) << what;
   EXPECT_EQ(s.piece_triangles, whole.triangles.size()) << what << ": a triangle in two pieces, or in none";
@@ -137,14 +136,14 @@ TEST(Distributed, WeldRefusesCoincidentVerticesOfOnePiece) {
   TriangleMesh m;
   m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 0, 0}};
   m.triangles = {{0, 1, 2}, {0, 2, 3}};
-  EXPECT_THROW(weld_pieces({m}, 0.1f), InvalidParameter);
+  EXPECT_THROW(weld_pieces({m}), InvalidParameter);
   // Two pieces sharing an edge weld into one mesh of 4 vertices.
   TriangleMesh a, b;
   a.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
   a.triangles = {{0, 1, 2}};
   b.vertices = {{1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
   b.triangles = {{0, 1, 2}};
-  const TriangleMesh w = weld_pieces({a, b}, 0.1f);
+  const TriangleMesh w = weld_pieces({a, b});
   EXPECT_EQ(w.vertices.size(), 4u);
   EXPECT_EQ(w.triangles.size(), 2u);
 }

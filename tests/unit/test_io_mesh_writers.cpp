@@ -368,6 +368,34 @@ bool check_with_python(const std::string& ext, const char* script_text) {
 
 bool check_with_meshio(const std::string& ext) { return check_with_python(ext, kMeshioScript); }
 
+// ------------------------------------------------------------------------------------------------
+// VTK XML PolyData (.vtp) and the .pvtp index of pieces
+
+TEST(VtpMeshWriter, RoundTripIsBitExactWithAttributes) {
+  TempDir dir;
+  const TriangleMesh mesh = sample_mesh();
+  const std::string path = dir.file("mesh.vtp");
+  write_mesh(path, mesh);
+  const std::string text = read_file(path);
+  EXPECT_EQ(text.rfind("<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\"", 0), 0u);
+  EXPECT_NE(text.find("<Piece NumberOfPoints=\"5\" NumberOfPolys=\"5\">"), std::string::npos);
+  EXPECT_NE(text.find("<PointData Normals=\"Normals\">"), std::string::npos);
+  const TriangleMesh back = read_mesh(path);
+  expect_same_geometry(mesh, back, true);
+  ASSERT_EQ(back.attributes.size(), mesh.attributes.size());
+  for (const Attribute& a : mesh.attributes) {
+    SCOPED_TRACE(a.name);
+    const Attribute* b = back.find(a.name);
+    ASSERT_NE(b, nullptr);
+    EXPECT_EQ(b->components, a.components);
+    ASSERT_EQ(b->values.size(), a.values.size());
+    for (std::size_t k = 0; k < a.values.size(); ++k) EXPECT_TRUE(same_bits(b->values[k], a.values[k])) << k;
+  }
+  // A cut file and a polygon that is not a triangle are refused with the file named.
+  write_file(dir.file("cut.vtp"), text.substr(0, text.size() - 200));
+  EXPECT_THROW(read_mesh(dir.file("cut.vtp")), FormatError);
+}
+
 #define MENISCUS_REQUIRE_MESHIO()                                                                          \
   if (!have_meshio())                                                                                      \
   GTEST_SKIP() << "SKIPPED: /usr/bin/python3 cannot import meshio (apt-get install python3-meshio, see " \
@@ -389,6 +417,23 @@ TEST(MeshRoundTrip, VtkItselfReadsOurVtk) {
   if (!have_vtk_python())
     GTEST_SKIP() << "SKIPPED: /usr/bin/python3 cannot import vtk (apt-get install python3-vtk9, see tools/install-deps.sh)";
   EXPECT_TRUE(check_with_python(".vtk", kVtkScript));
+}
+
+const char* const kVtpScript =
+    "import sys, vtk\n"
+    "r = vtk.vtkXMLPolyDataReader(); r.SetFileName(sys.argv[1]); r.Update()\n"
+    "pd = r.GetOutput(); polys = pd.GetPolys()\n"
+    "print(pd.GetNumberOfPoints(), polys.GetNumberOfCells())\n"
+    "for i in range(pd.GetNumberOfPoints()): print(' '.join(repr(float(v)) for v in pd.GetPoint(i)))\n"
+    "ids = vtk.vtkIdList(); polys.InitTraversal()\n"
+    "while polys.GetNextCell(ids): print('t', ' '.join(str(ids.GetId(k)) for k in range(ids.GetNumberOfIds())))\n"
+    "n = pd.GetPointData().GetNormals()\n"
+    "print('normals', 0 if n is None else n.GetNumberOfTuples())\n";
+
+TEST(MeshRoundTrip, VtkItselfReadsOurVtp) {
+  if (!have_vtk_python())
+    GTEST_SKIP() << "SKIPPED: /usr/bin/python3 cannot import vtk (apt-get install python3-vtk9, see tools/install-deps.sh)";
+  EXPECT_TRUE(check_with_python(".vtp", kVtpScript));
 }
 
 TEST(MeshRoundTrip, MeshioReadsVtk) {

@@ -7,9 +7,13 @@
 #   - the four meshes are then byte-identical to the local run;
 #   - the flicker measured afterwards (`meniscus inspect --flicker`) is the local run's;
 #   - a job granted less memory than its frame needs (sbatch --mem) is refused with a message, and
-#     one granted enough runs on the CPUs it was given.
-# Usage: test_slurm_array.sh MENISCUS_BINARY DATA_DIR; exits 77 (skipped) without Slurm.
+#     one granted enough runs on the CPUs it was given;
+#   - an MPI job (sbatch -n 2, srun --mpi=pmix) surfaces one frame over its two ranks, the same
+#     surface as one process, bit for bit (when this meniscus has MPI).
+# Usage: test_slurm.sh MENISCUS_BINARY DATA_DIR; exits 77 (skipped) without Slurm.
 set -euo pipefail
+# A sanitizer build: what OpenMPI keeps until exit is not ours to report.
+export LSAN_OPTIONS="suppressions=$(cd "$(dirname "$0")" && pwd)/lsan.supp${LSAN_OPTIONS:+:$LSAN_OPTIONS}"
 meniscus=$(realpath "$1") data=$(realpath "$2")
 here=$(cd "$(dirname "$0")" && pwd) root=$(cd "$(dirname "$0")/../.." && pwd)
 source "$here/cluster.sh"
@@ -91,4 +95,15 @@ sbatch --wait --mem=400 --cpus-per-task=1 --output=fed.out --wrap "${job[*]} -o 
 grep -q "on 1 threads (SLURM_CPUS_PER_TASK)" fed.out || { cat fed.out; fail "--cpus-per-task=1 was not honoured"; }
 cmp -s fed/mesh.ply local/mesh_0001.ply || fail "the batch job's mesh differs from the local run's"
 echo "memory: a 40 MB task refused with a message, a 400 MB one ran on 1 thread"
+
+# One frame over the two ranks of an MPI job under Slurm (PMIx).
+if "$meniscus" info | grep -q "^mpi: yes"; then
+  sbatch --wait -n 2 --output=mpi.out --wrap "srun --mpi=pmix ${job[*]} -o mpi/mesh.ply --stats mpi/stats.json" >/dev/null 2>&1 ||
+    { cat mpi.out; fail "the MPI job failed"; }
+  grep -q '"ranks": 2' mpi/stats.json || fail "the MPI job did not run on 2 ranks"
+  /usr/bin/python3 "$here/same_mesh.py" local/mesh_0001.ply mpi/mesh.ply || fail "the MPI job's mesh is not the local run's"
+  echo "mpi: srun --mpi=pmix over 2 ranks = one process, bit for bit"
+else
+  echo "mpi: this meniscus has no MPI; the MPI job is not run"
+fi
 echo "total $(elapsed)"

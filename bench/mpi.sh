@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# One frame over MPI ranks against one process, on wide splashes (bench/wide_splash.py): the same
+# surface bit for bit (tests/cluster/same_mesh.py), time, peak memory per rank, the halo's share.
+#   bash bench/mpi.sh [BUILD_DIR] [COUNTS] [RANKS]     defaults: build/release 1000000,3000000 2,4
+# Prints one table row per scene and rank count (markdown, for bench/RESULTS.md).
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+build=${1:-$root/build/release}
+IFS=, read -r -a counts <<<"${2:-1000000,3000000}"
+IFS=, read -r -a ranks <<<"${3:-2,4}"
+meniscus=$build/meniscus
+"$meniscus" info | grep -q "^mpi: yes" || { echo "$meniscus has no MPI (install libopenmpi-dev, rebuild)"; exit 1; }
+work=$(mktemp -d /tmp/meniscus-bench-mpi.XXXXXX)
+trap 'rm -rf "$work"' EXIT
+mpi=(mpirun --oversubscribe -n)
+[[ $(id -u) == 0 ]] && mpi=(mpirun --allow-run-as-root --oversubscribe -n)
+export OMPI_MCA_btl=self,vader
+echo "# $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//'), $(git -C "$root" rev-parse --short HEAD)"
+echo "| scene | K | time (s) | peak per rank, MB (max) | max / 1 process | widest slab with halo / N | halo share of the particles surfaced | same surface |"
+echo "|---|---|---|---|---|---|---|---|"
+for n in "${counts[@]}"; do
+  /usr/bin/python3 "$root/bench/wide_splash.py" "$n" "$work/splash.ply" >/dev/null
+  "$meniscus" surface "$work/splash.ply" -o "$work/one.ply" --spacing 0.01 --stats "$work/one.json" -q --backend cpu
+  read -r t1 p1 < <(/usr/bin/python3 -c "import json; j=json.load(open('$work/one.json')); print(j['total_seconds'], j['peak_memory_bytes'])")
+  echo "| wide splash $n | 1 process | $t1 | $(( ${p1%.*} / 1000000 )) | 1 | 1 | 0 | — |"
+  for k in "${ranks[@]}"; do
+    "${mpi[@]}" "$k" "$meniscus" surface "$work/splash.ply" -o "$work/k.ply" --spacing 0.01 --stats "$work/k.json" -q --backend cpu
+    same=$(/usr/bin/python3 "$root/tests/cluster/same_mesh.py" "$work/one.ply" "$work/k.ply" >/dev/null && echo yes || echo NO)
+    /usr/bin/python3 - "$work/k.json" "$p1" "$n" "$k" "$same" <<'PY'
+import json, sys
+j = json.load(open(sys.argv[1]))
+p1, n, k, same = float(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
+ranks = j["per_rank"]
+peak = max(r["peak_memory_bytes"] for r in ranks)
+widest = max(r["particles_with_halo"] for r in ranks)
+surfaced = sum(r["particles_with_halo"] for r in ranks)
+print(f"| wide splash {n} | {k} | {j['total_seconds']:.1f} | {peak / 1e6:.0f} | {peak / p1:.2f} | {widest / j['particles']:.2f} "
+      f"| {(surfaced - j['particles']) / surfaced:.2f} | {same} |")
+PY
+  done
+done

@@ -1,0 +1,94 @@
+#!/usr/bin/env bash
+# `mpirun -n K meniscus surface` (OpenMPI, --oversubscribe on a small machine): one frame over
+# K = 1, 2, 4 ranks gives the single process's surface bit for bit (tests/cluster/same_mesh.py:
+# the same vertex and triangle counts, the same positions and triangles, closed and manifold), on
+# real frames (one with the anisotropic field and its velocity transferred) and a wide splash where the
+# slabs are narrower than the frame; --stats records the ranks; bad input fails every rank
+# cleanly. Usage: test_mpi.sh MENISCUS_BINARY DATA_DIR; exits 77 (skipped) without MPI.
+set -euo pipefail
+# A sanitizer build: what OpenMPI keeps until exit is not ours to report.
+export LSAN_OPTIONS="suppressions=$(cd "$(dirname "$0")" && pwd)/lsan.supp${LSAN_OPTIONS:+:$LSAN_OPTIONS}"
+meniscus=$(realpath "$1") data=$(realpath "$2")
+here=$(cd "$(dirname "$0")" && pwd)
+command -v mpirun >/dev/null || { echo "SKIP: no mpirun (Debian: openmpi-bin)"; exit 77; }
+"$meniscus" info | grep -q "^mpi: yes" || { echo "SKIP: this meniscus was built without MPI"; exit 77; }
+work=$(mktemp -d /tmp/meniscus-mpi.XXXXXX)
+trap 'rm -rf "$work"' EXIT
+cd "$work"
+fail() { echo "FAIL: $*"; exit 1; }
+mpi=(mpirun --oversubscribe -n)
+[[ $(id -u) == 0 ]] && mpi=(mpirun --allow-run-as-root --oversubscribe -n)
+export OMPI_MCA_rmaps_base_oversubscribe=1 OMPI_MCA_btl=self,vader  # one machine: shared memory only
+same() { /usr/bin/python3 "$here/same_mesh.py" "$@"; }
+start=$(date +%s%N)
+
+# A wide splash: a pool 160 × 12 × 4 d with 100 lone droplets over it, a PLY point cloud.
+/usr/bin/python3 - <<'PY'
+import numpy as np
+rng = np.random.default_rng(3)
+d, depth = 0.01, 4
+i, j, k = np.meshgrid(np.arange(160), np.arange(12), np.arange(depth), indexing="ij")
+pool = np.stack([i, j, k], -1).reshape(-1, 3) * d + rng.uniform(-0.1 * d, 0.1 * d, (i.size, 3))
+drops = rng.uniform([2 * d, 2 * d, (depth + 2) * d], [157 * d, 9 * d, 4 * depth * d], (100, 3))
+points = np.concatenate([pool, drops]).astype("<f4")
+with open("splash.ply", "wb") as f:
+    f.write(f"ply\nformat binary_little_endian 1.0\nelement vertex {len(points)}\nproperty float x\nproperty float y\n"
+            f"property float z\nend_header\n".encode())
+    f.write(points.tobytes())
+PY
+
+check() {  # name, input, options...
+  local name=$1 input=$2
+  shift 2
+  "$meniscus" surface "$input" -o "$name.single.ply" -q --backend cpu "$@"
+  for k in 1 2 4; do
+    "${mpi[@]}" $k "$meniscus" surface "$input" -o "$name.k$k.ply" --stats "$name.k$k.json" -q --backend cpu "$@" ||
+      fail "$name: mpirun -n $k failed"
+    same "$name.single.ply" "$name.k$k.ply" > "$name.k$k.same" || { cat "$name.k$k.same"; fail "$name: K=$k differs from one process"; }
+    /usr/bin/python3 -c "
+import json, sys
+j = json.load(open('$name.k$k.json'))
+assert j['ranks'] == $k and len(j['per_rank']) == $k, (j['ranks'], len(j['per_rank']))
+assert sum(r['owned_triangles'] for r in j['per_rank']) == j['triangles'], 'a triangle owned twice or never'
+assert all(r['peak_memory_bytes'] > 0 and r['surface_seconds'] > 0 for r in j['per_rank'] if r['particles_with_halo'] > 0)
+" || fail "$name: the stats of K=$k"
+  done
+  echo "$name: K=1,2,4 $(cat "$name.k4.same")"
+}
+check dam_break_23 "$data/ply/dam_break_frame_23_24389_particles.ply"
+check dam_break_9_anisotropic_velocity "$data/dam_break_frame_9_6859_particles.bgeo" --field anisotropic --transfer velocity
+check splash splash.ply --spacing 0.01
+/usr/bin/python3 -c "
+import json
+j = json.load(open('splash.k4.json'))
+widest = max(r['particles_with_halo'] for r in j['per_rank'])
+assert widest < 0.8 * j['particles'], (widest, j['particles'])
+print(f'splash K=4: the widest slab holds {widest:.0f} of {j[\"particles\"]} particles with its halo')
+"
+
+# --pieces: one .vtp per rank and ParaView's .pvtp index (read by VTK itself), welded by merge
+# into the single process's surface.
+"${mpi[@]}" 4 "$meniscus" surface splash.ply -o pieces/splash.pvtp --pieces --spacing 0.01 -q --backend cpu ||
+  fail "mpirun --pieces failed"
+[[ $(ls pieces | wc -l) == 5 ]] || { ls pieces; fail "expected 4 pieces and the index"; }
+/usr/bin/python3 - <<'PY' || fail "VTK does not read the pieces through the .pvtp index as the frame's triangles"
+import subprocess, vtk
+r = vtk.vtkXMLPPolyDataReader(); r.SetFileName("pieces/splash.pvtp"); r.Update()
+cells = r.GetOutput().GetNumberOfCells()
+single = vtk.vtkPLYReader(); single.SetFileName("splash.single.ply"); single.Update()
+assert cells == single.GetOutput().GetNumberOfCells(), (cells, single.GetOutput().GetNumberOfCells())
+assert r.GetOutput().GetPointData().GetNormals() is not None
+print(f"pieces: VTK reads {cells} triangles through the .pvtp index")
+PY
+"$meniscus" merge pieces/splash.pvtp -o merged.ply -q
+same splash.single.ply merged.ply > merged.same || { cat merged.same; fail "the merged pieces differ from one process"; }
+echo "merge: $(cat merged.same)"
+
+# Bad input: every rank stops, the message names the file, no mesh is written.
+head -c 2000 "$data/ply/dam_break_frame_23_24389_particles.ply" > broken.ply
+if "${mpi[@]}" 2 "$meniscus" surface broken.ply -o broken_mesh.ply > broken.out 2>&1; then fail "a truncated file surfaced"; fi
+grep -q "broken.ply" broken.out || { cat broken.out; fail "no message naming the file"; }
+[[ ! -e broken_mesh.ply ]] || fail "a mesh was written for a truncated file"
+if "${mpi[@]}" 2 "$meniscus" surface 'sim_####.ply' -o 'out_####.ply' > seq.out 2>&1; then fail "a sequence ran under mpirun"; fi
+grep -q "job array" seq.out || { cat seq.out; fail "no message for a sequence under mpirun"; }
+echo "total $(( ($(date +%s%N) - start) / 1000000 )) ms"

@@ -94,23 +94,6 @@ double centroid(const TriangleMesh& mesh, const Triangle& t, int axis) {
   return (c[0] + c[1] + c[2]) / 3;
 }
 
-/// Copies the vertices `keep` (old indices, in order) of `mesh` with their normals and attributes.
-TriangleMesh select_vertices(const TriangleMesh& mesh, const std::vector<uint32_t>& keep) {
-  TriangleMesh out;
-  out.vertices.reserve(keep.size());
-  for (uint32_t v : keep) out.vertices.push_back(mesh.vertices[v]);
-  if (!mesh.normals.empty())
-    for (uint32_t v : keep) out.normals.push_back(mesh.normals[v]);
-  for (const Attribute& a : mesh.attributes) {
-    Attribute b{a.name, a.components, a.integer, {}};
-    const std::size_t k = std::size_t(a.components);
-    for (uint32_t v : keep)
-      b.values.insert(b.values.end(), a.values.begin() + std::ptrdiff_t(v * k), a.values.begin() + std::ptrdiff_t((v + 1) * k));
-    out.attributes.push_back(std::move(b));
-  }
-  return out;
-}
-
 /// A vertex's identity: its coordinates' bits, ordered by Z-order first.
 struct VertexKey {
   uint32_t morton;
@@ -124,26 +107,53 @@ VertexKey key_of(Vec3f x, float inv_cell) {
 
 }  // namespace
 
-TriangleMesh owned_piece(const TriangleMesh& mesh, const Decomposition& d, int rank) {
+void keep_owned(TriangleMesh& mesh, const Decomposition& d, int rank) {
   const double lo = d.lo(rank), hi = d.hi(rank);
-  std::vector<Triangle> triangles;
-  std::vector<uint32_t> new_index(mesh.vertices.size(), UINT32_MAX), keep;
+  std::vector<uint32_t> new_index(mesh.vertices.size(), UINT32_MAX);
+  std::size_t kept = 0;
   for (const Triangle& t : mesh.triangles) {
     const double c = centroid(mesh, t, d.axis);
     if (c < lo || c >= hi) continue;
-    triangles.push_back(t);
+    mesh.triangles[kept++] = t;
     for (uint32_t v : t) new_index[v] = 0;
   }
-  for (uint32_t v = 0; v < mesh.vertices.size(); ++v)
-    if (new_index[v] == 0) new_index[v] = uint32_t(keep.size()), keep.push_back(v);
-  TriangleMesh out = select_vertices(mesh, keep);
-  for (Triangle& t : triangles)
+  mesh.triangles.resize(kept);
+  // The vertices kept, moved down in place (a vertex's new index is never above its old one).
+  uint32_t next = 0;
+  const bool normals = mesh.normals.size() == mesh.vertices.size();
+  for (uint32_t v = 0; v < mesh.vertices.size(); ++v) {
+    if (new_index[v] == UINT32_MAX) continue;
+    new_index[v] = next;
+    mesh.vertices[next] = mesh.vertices[v];
+    if (normals) mesh.normals[next] = mesh.normals[v];
+    for (Attribute& a : mesh.attributes) {
+      const std::size_t k = std::size_t(a.components);
+      std::copy_n(a.values.begin() + std::ptrdiff_t(v * k), k, a.values.begin() + std::ptrdiff_t(next * k));
+    }
+    ++next;
+  }
+  for (Triangle& t : mesh.triangles)
     for (uint32_t& v : t) v = new_index[v];
-  out.triangles = std::move(triangles);
-  return out;
+  mesh.vertices.resize(next);
+  mesh.vertices.shrink_to_fit();
+  if (normals) mesh.normals.resize(next), mesh.normals.shrink_to_fit();
+  for (Attribute& a : mesh.attributes) a.values.resize(std::size_t(next) * std::size_t(a.components)), a.values.shrink_to_fit();
+  mesh.triangles.shrink_to_fit();
 }
 
-TriangleMesh weld_pieces(const std::vector<TriangleMesh>& pieces) {
+TriangleMesh owned_piece(const TriangleMesh& mesh, const Decomposition& d, int rank) {
+  TriangleMesh piece = mesh;
+  keep_owned(piece, d, rank);
+  return piece;
+}
+
+TriangleMesh weld_pieces(std::vector<TriangleMesh> pieces) {
+  // Memory: the pieces' arrays are freed as soon as they are copied (on the rank that gathers,
+  // the pieces and the welded mesh are the frame's whole surface twice over).
+  const bool normals = !pieces.empty() && std::all_of(pieces.begin(), pieces.end(), [](const TriangleMesh& m) {
+    return m.normals.size() == m.vertices.size();
+  });
+  for (TriangleMesh& m : pieces) std::vector<Vec3f>().swap(m.normals);  // computed again below
   // The Z-order's grid: 1024 cells across the pieces' box, which does not depend on the cut.
   Vec3f lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
   for (const TriangleMesh& m : pieces)
@@ -168,6 +178,7 @@ TriangleMesh weld_pieces(const std::vector<TriangleMesh>& pieces) {
   std::vector<std::vector<uint32_t>> merged_of(pieces.size());
   for (std::size_t p = 0; p < pieces.size(); ++p) merged_of[p].resize(pieces[p].vertices.size());
   std::vector<std::pair<uint32_t, uint32_t>> source;  // (piece, index) of each merged vertex
+  source.reserve(all.size());
   for (std::size_t i = 0; i < all.size(); ++i) {
     const Entry& e = all[i];
     if (i > 0 && all[i - 1].key == e.key) {
@@ -181,11 +192,9 @@ TriangleMesh weld_pieces(const std::vector<TriangleMesh>& pieces) {
     }
     merged_of[e.piece][e.index] = uint32_t(source.size() - 1);
   }
+  std::vector<Entry>().swap(all);
 
   TriangleMesh out;
-  const bool normals = std::all_of(pieces.begin(), pieces.end(), [](const TriangleMesh& m) {
-    return m.normals.size() == m.vertices.size();
-  }) && total > 0;
   out.vertices.reserve(source.size());
   for (const auto& [p, i] : source) out.vertices.push_back(pieces[p].vertices[i]);
   if (!pieces.empty())
@@ -205,14 +214,25 @@ TriangleMesh weld_pieces(const std::vector<TriangleMesh>& pieces) {
       }
       out.attributes.push_back(std::move(merged));
     }
+  std::vector<std::pair<uint32_t, uint32_t>>().swap(source);
+  for (TriangleMesh& m : pieces) {
+    std::vector<Vec3f>().swap(m.vertices);
+    m.attributes.clear();
+  }
 
   // Triangles: renumbered, turned to start at their smallest vertex (orientation kept), sorted.
-  for (std::size_t p = 0; p < pieces.size(); ++p)
+  std::size_t triangles = 0;
+  for (const TriangleMesh& m : pieces) triangles += m.triangles.size();
+  out.triangles.reserve(triangles);
+  for (std::size_t p = 0; p < pieces.size(); ++p) {
     for (Triangle t : pieces[p].triangles) {
       for (uint32_t& v : t) v = merged_of[p][v];
       while (t[0] > t[1] || t[0] > t[2]) t = {t[1], t[2], t[0]};
       out.triangles.push_back(t);
     }
+    std::vector<Triangle>().swap(pieces[p].triangles);
+    std::vector<uint32_t>().swap(merged_of[p]);
+  }
   tbb::parallel_sort(out.triangles.begin(), out.triangles.end());
   // The normals again, on the welded mesh: a vertex's sum over its triangles then runs in one
   // order whatever the cut (a piece's triangle order can tie-break differently).

@@ -37,6 +37,16 @@ double limit_file(const std::filesystem::path& path) {
   return bytes > 0 && bytes < 1e18 ? bytes : INFINITY;
 }
 
+/// Whether a v1 hierarchy's controller list ("cpu,cpuacct", "memory") names the memory controller.
+bool lists_memory(std::string_view controllers) {
+  for (std::size_t at = 0; at <= controllers.size();) {
+    const std::size_t comma = std::min(controllers.find(',', at), controllers.size());
+    if (controllers.substr(at, comma - at) == "memory") return true;
+    at = comma + 1;
+  }
+  return false;
+}
+
 struct CgroupLimit {
   double bytes = INFINITY;
   std::string file;
@@ -83,7 +93,7 @@ Grant granted_memory(const EnvFn& env, const std::string& proc_self_cgroup, cons
     if (line.compare(0, a, "0") == 0 && controllers.empty()) {
       tighten(cg, root, path, "memory.max");
       tighten(cg, root / "unified", path, "memory.max");
-    } else if (("," + std::string(controllers) + ",").find(",memory,") != std::string::npos) {
+    } else if (lists_memory(controllers)) {
       tighten(cg, root / "memory", path, "memory.limit_in_bytes");
     }
   }

@@ -617,8 +617,7 @@ int run_merge(const MergeArgs& a) {
     pieces.push_back(read_mesh(f));
     vertices += pieces.back().vertices.size();
   }
-  const TriangleMesh mesh = weld_pieces(pieces);
-  pieces.clear();
+  const TriangleMesh mesh = weld_pieces(std::move(pieces));
   make_parent_dirs(a.output);
   write_mesh(a.output, mesh);
   if (!a.quiet) {

@@ -122,24 +122,6 @@ ParticleSet unpack_particles(const std::vector<char>& bytes) {
   return p;
 }
 
-std::vector<char> pack(const TriangleMesh& m) {
-  Writer w;
-  w.put_array(m.vertices);
-  w.put_array(m.triangles);
-  w.put_array(m.normals);
-  put_attributes(w, m.attributes);
-  return std::move(w.bytes);
-}
-
-TriangleMesh unpack_mesh(const std::vector<char>& bytes) {
-  Reader r{bytes};
-  TriangleMesh m;
-  m.vertices = r.get_array<Vec3f>();
-  m.triangles = r.get_array<Triangle>();
-  m.normals = r.get_array<Vec3f>();
-  m.attributes = get_attributes(r);
-  return m;
-}
 
 // --- Messages of any size: a count, then chunks of at most 1 GiB (MPI counts are int).
 
@@ -159,6 +141,59 @@ std::vector<char> receive_bytes(int from, int tag) {
   for (std::size_t at = 0; at < n; at += kChunk)
     MPI_Recv(bytes.data() + at, int(std::min(kChunk, n - at)), MPI_BYTE, from, tag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
   return bytes;
+}
+
+void send_raw(const void* data, std::size_t bytes, int to, int tag) {
+  const char* p = static_cast<const char*>(data);
+  for (std::size_t at = 0; at < bytes; at += kChunk)
+    MPI_Send(p + at, int(std::min(kChunk, bytes - at)), MPI_BYTE, to, tag, MPI_COMM_WORLD);
+}
+
+void receive_raw(void* data, std::size_t bytes, int from, int tag) {
+  char* p = static_cast<char*>(data);
+  for (std::size_t at = 0; at < bytes; at += kChunk)
+    MPI_Recv(p + at, int(std::min(kChunk, bytes - at)), MPI_BYTE, from, tag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+}
+
+/// A mesh, its arrays sent as they are (no packed copy): the sizes and attribute names first.
+void send_mesh(const TriangleMesh& m, int to, int tag) {
+  Writer w;
+  w.put(uint64_t(m.vertices.size()));
+  w.put(uint64_t(m.triangles.size()));
+  w.put(uint64_t(m.normals.size()));
+  w.put(uint64_t(m.attributes.size()));
+  for (const Attribute& a : m.attributes) {
+    w.put_string(a.name);
+    w.put(int32_t(a.components));
+    w.put(uint8_t(a.integer));
+    w.put(uint64_t(a.values.size()));
+  }
+  send_bytes(w.bytes, to, tag);
+  send_raw(m.vertices.data(), m.vertices.size() * sizeof(Vec3f), to, tag);
+  send_raw(m.triangles.data(), m.triangles.size() * sizeof(Triangle), to, tag);
+  send_raw(m.normals.data(), m.normals.size() * sizeof(Vec3f), to, tag);
+  for (const Attribute& a : m.attributes) send_raw(a.values.data(), a.values.size() * sizeof(float), to, tag);
+}
+
+TriangleMesh receive_mesh(int from, int tag) {
+  const std::vector<char> head = receive_bytes(from, tag);
+  Reader r{head};
+  TriangleMesh m;
+  m.vertices.resize(r.get<uint64_t>());
+  m.triangles.resize(r.get<uint64_t>());
+  m.normals.resize(r.get<uint64_t>());
+  m.attributes.resize(r.get<uint64_t>());
+  for (Attribute& a : m.attributes) {
+    a.name = r.get_string();
+    a.components = r.get<int32_t>();
+    a.integer = r.get<uint8_t>() != 0;
+    a.values.resize(r.get<uint64_t>());
+  }
+  receive_raw(m.vertices.data(), m.vertices.size() * sizeof(Vec3f), from, tag);
+  receive_raw(m.triangles.data(), m.triangles.size() * sizeof(Triangle), from, tag);
+  receive_raw(m.normals.data(), m.normals.size() * sizeof(Vec3f), from, tag);
+  for (Attribute& a : m.attributes) receive_raw(a.values.data(), a.values.size() * sizeof(float), from, tag);
+  return m;
 }
 
 /// Whether every rank succeeded; a rank that failed prints its message first.
@@ -263,7 +298,8 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
   error = attempt([&] {
     if (slab.size() == 0) return;  // a slab without particles owns no triangle
     result = reconstruct(slab, given);
-    piece = owned_piece(result.mesh, d, rank);
+    keep_owned(result.mesh, d, rank);
+    piece = std::move(result.mesh);
     result.mesh = {};
   });
   slab = {};
@@ -287,9 +323,9 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
     piece = {};
   } else if (rank == 0) {
     pieces.push_back(std::move(piece));
-    for (int r = 1; r < ranks; ++r) pieces.push_back(unpack_mesh(receive_bytes(r, kPiece)));
+    for (int r = 1; r < ranks; ++r) pieces.push_back(receive_mesh(r, kPiece));
   } else {
-    send_bytes(pack(piece), 0, kPiece);
+    send_mesh(piece, 0, kPiece);
     piece = {};
   }
   stages.emplace_back(job.pieces ? "write_pieces" : "gather", seconds_since(t3));
@@ -311,7 +347,7 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
         for (const RankReport& r : reports) mesh.triangles.resize(mesh.triangles.size() + std::size_t(r.owned_triangles));
         for (const RankReport& r : reports) mesh.vertices.resize(mesh.vertices.size() + std::size_t(r.owned_vertices));
       } else {
-        mesh = weld_pieces(pieces);
+        mesh = weld_pieces(std::move(pieces));
         pieces.clear();
         stages.emplace_back("weld", seconds_since(t4));
         const auto t5 = std::chrono::steady_clock::now();

@@ -44,6 +44,8 @@ ParticleSet slab_particles(const ParticleSet& particles, const Decomposition& d,
 /// whose centroid lies in its slab (each triangle of the whole frame's mesh is owned by exactly
 /// one rank) and the vertices they use, with their normals and attributes, in the mesh's order.
 TriangleMesh owned_piece(const TriangleMesh& mesh, const Decomposition& d, int rank);
+/// owned_piece() in place: `mesh` becomes its owned piece, its arrays shrunk (no second copy).
+void keep_owned(TriangleMesh& mesh, const Decomposition& d, int rank);
 
 /// Welds pieces into one mesh: vertices that coincide bit for bit are one vertex (the seams' are
 /// computed identically by every rank that has them). The result is in a canonical order —
@@ -53,6 +55,6 @@ TriangleMesh owned_piece(const TriangleMesh& mesh, const Decomposition& d, int r
 /// computed again on the welded mesh (they equal the pieces' to rounding: a vertex's sum over its
 /// triangles then runs in one order whatever the cut). Throws InvalidParameter when two vertices of
 /// one piece coincide (their identity would be lost) or pieces disagree on a vertex's attributes.
-TriangleMesh weld_pieces(const std::vector<TriangleMesh>& pieces);
+TriangleMesh weld_pieces(std::vector<TriangleMesh> pieces);
 
 }  // namespace meniscus

@@ -342,12 +342,12 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
     error = attempt([&] {
       const auto t4 = std::chrono::steady_clock::now();
       const Params p = result.params.spacing > 0 ? result.params : resolve_params(ParticleSet{{Vec3f{}}, {}}, given);
-      TriangleMesh mesh;
-      if (job.pieces) {
-        for (const RankReport& r : reports) mesh.triangles.resize(mesh.triangles.size() + std::size_t(r.owned_triangles));
-        for (const RankReport& r : reports) mesh.vertices.resize(mesh.vertices.size() + std::size_t(r.owned_vertices));
-      } else {
-        mesh = weld_pieces(std::move(pieces));
+      // The counts: the welded mesh's, or with --pieces the pieces' sums (seam vertices in each piece).
+      std::size_t vertices = 0, triangles = 0;
+      for (const RankReport& r : reports) vertices += std::size_t(r.owned_vertices), triangles += std::size_t(r.owned_triangles);
+      if (!job.pieces) {
+        const TriangleMesh mesh = weld_pieces(std::move(pieces));
+        vertices = mesh.vertices.size();
         pieces.clear();
         stages.emplace_back("weld", seconds_since(t4));
         const auto t5 = std::chrono::steady_clock::now();
@@ -360,7 +360,7 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
       if (!job.quiet) {
         fmt::print(stderr, "{} particles → {} vertices, {} triangles in {:.3f}s on {} ranks (slabs along {}, halo {:.4g} = "
                            "{:.1f} spacings), peak memory per rank {:.0f} MB at most\n",
-                   total_particles, mesh.vertices.size(), mesh.triangles.size(), total, ranks, "xyz"[d.axis], d.halo,
+                   total_particles, vertices, triangles, total, ranks, "xyz"[d.axis], d.halo,
                    d.halo / p.spacing, peak / 1e6);
         std::string line;
         for (const auto& [name, s] : stages) line += fmt::format("{}{} {:.3f}s", line.empty() ? "" : ", ", name, s);
@@ -381,8 +381,8 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
         summary.params = p;
         summary.stats = result.stats;
         summary.stats.particles = total_particles;
-        summary.stats.vertices = mesh.vertices.size();
-        summary.stats.triangles = mesh.triangles.size();
+        summary.stats.vertices = vertices;
+        summary.stats.triangles = triangles;
         summary.stats.peak_memory_bytes = std::size_t(peak);
         summary.stats.stages.clear();
         for (const auto& [name, s] : stages) summary.stats.stages.push_back({name, s});

@@ -133,6 +133,23 @@ TEST(ObjReader, BadInputNamesTheLine) {
   expect_format_error([&] { read_mesh(d); }, {d, "line 1", "finite"});
 }
 
+/// Every attribute of `mesh` is in `back` with its components and bit-exact values (and its
+/// integer flag, where the format keeps it).
+void expect_same_attributes(const TriangleMesh& mesh, const TriangleMesh& back, bool integer_kept) {
+  ASSERT_EQ(back.attributes.size(), mesh.attributes.size());
+  for (const Attribute& a : mesh.attributes) {
+    SCOPED_TRACE(a.name);
+    const Attribute* b = back.find(a.name);
+    ASSERT_NE(b, nullptr);
+    EXPECT_EQ(b->components, a.components);
+    if (integer_kept) {
+      EXPECT_EQ(b->integer, a.integer);
+    }
+    ASSERT_EQ(b->values.size(), a.values.size());
+    for (std::size_t k = 0; k < a.values.size(); ++k) EXPECT_TRUE(same_bits(b->values[k], a.values[k])) << k;
+  }
+}
+
 // ------------------------------------------------------------------------------------------------
 // Legacy VTK
 
@@ -152,16 +169,7 @@ TEST(VtkMeshWriter, RoundTripIsBitExactWithAttributes) {
 
   const TriangleMesh back = read_mesh(path);
   expect_same_geometry(mesh, back, true);
-  ASSERT_EQ(back.attributes.size(), mesh.attributes.size());
-  for (const Attribute& a : mesh.attributes) {
-    SCOPED_TRACE(a.name);
-    const Attribute* b = back.find(a.name);
-    ASSERT_NE(b, nullptr);
-    EXPECT_EQ(b->components, a.components);
-    EXPECT_EQ(b->integer, a.integer);
-    ASSERT_EQ(b->values.size(), a.values.size());
-    for (std::size_t k = 0; k < a.values.size(); ++k) EXPECT_TRUE(same_bits(b->values[k], a.values[k])) << k;
-  }
+  expect_same_attributes(mesh, back, /*integer_kept=*/true);
   // The same file is a particle file too (normals become an attribute there).
   const ParticleSet particles = read_particles(path);
   EXPECT_EQ(particles.size(), 5u);
@@ -382,16 +390,8 @@ TEST(VtpMeshWriter, RoundTripIsBitExactWithAttributes) {
   EXPECT_NE(text.find("<PointData Normals=\"Normals\">"), std::string::npos);
   const TriangleMesh back = read_mesh(path);
   expect_same_geometry(mesh, back, true);
-  ASSERT_EQ(back.attributes.size(), mesh.attributes.size());
-  for (const Attribute& a : mesh.attributes) {
-    SCOPED_TRACE(a.name);
-    const Attribute* b = back.find(a.name);
-    ASSERT_NE(b, nullptr);
-    EXPECT_EQ(b->components, a.components);
-    ASSERT_EQ(b->values.size(), a.values.size());
-    for (std::size_t k = 0; k < a.values.size(); ++k) EXPECT_TRUE(same_bits(b->values[k], a.values[k])) << k;
-  }
-  // A cut file and a polygon that is not a triangle are refused with the file named.
+  expect_same_attributes(mesh, back, /*integer_kept=*/false);  // .vtp writes every attribute as Float32
+  // A cut file is refused.
   write_file(dir.file("cut.vtp"), text.substr(0, text.size() - 200));
   EXPECT_THROW(read_mesh(dir.file("cut.vtp")), FormatError);
 }

@@ -3,13 +3,15 @@
 #   1. the build with CUDA for this machine's GPU (and the benchmarks), on all cores;
 #   2. the cuda-labelled tests on the device (stages bit for bit against the CPU, parity on blocks
 #      and every real frame, field methods, fallback, the CLI with --backend cuda);
-#   3. compute-sanitizer memcheck, racecheck, initcheck and synccheck on the device stage tests;
-#   4. the GPU benchmark: per-stage device times and launch / round-trip counts at 100k, 1M and
+#   3. the GPU benchmark: per-stage device times and launch / round-trip counts at 100k, 1M and
 #      10M particles (warm: the second of two runs), the field methods at 1M;
-#   5. the same scenes on this machine's CPU backend.
+#   4. the same scenes on this machine's CPU backend;
+#   5. compute-sanitizer memcheck, racecheck, initcheck and synccheck on the device stage tests.
 # Every section runs even when one fails; the report ends with a verdict per section, and the
 # script exits non-zero if any failed. About 8 minutes on an H100 with 16 cores.
 #   bash bench/gpu.sh OUT_DIR            writes OUT_DIR/gpu_report.txt (the build goes to build/gpu)
+#   MENISCUS_GPU_PREBUILT=1 bash bench/gpu.sh OUT_DIR   uses the build in build/gpu as it is (made on
+#                                        another machine and unpacked here: bench/gpu-bundle.sh)
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:?usage: bash bench/gpu.sh OUT_DIR}
@@ -43,19 +45,16 @@ SANITIZER=$(command -v compute-sanitizer || ls /usr/local/cuda/bin/compute-sanit
 TESTS="$BUILD/tests/meniscus_cuda_tests"
 STAGE_TESTS='CudaStages*:CudaParity.ExtractionOnly*:CudaParity.TransferredAttributes*'
 
-section "build (CUDA for this GPU, benchmarks, $JOBS jobs)" 420 bash -c "
-  cmake -S . -B '$BUILD' -G Ninja -DCMAKE_BUILD_TYPE=Release -DMENISCUS_CUDA=ON -DCMAKE_CUDA_ARCHITECTURES=native \
-        -DMENISCUS_BUILD_BENCH=ON -DMENISCUS_PYTHON=OFF > /dev/null && cmake --build '$BUILD' -j $JOBS"
+if [[ ${MENISCUS_GPU_PREBUILT:-0} == 1 ]]; then
+  # A build made elsewhere for this GPU (bench/gpu-bundle.sh), on a machine without the Debian packages.
+  section "build (prebuilt: $BUILD)" 10 test -x "$BUILD/meniscus" -a -x "$TESTS" -a -x "$BUILD/meniscus_bench_gpu"
+else
+  section "build (CUDA for this GPU, benchmarks, $JOBS jobs)" 420 bash -c "
+    cmake -S . -B '$BUILD' -G Ninja -DCMAKE_BUILD_TYPE=Release -DMENISCUS_CUDA=ON -DCMAKE_CUDA_ARCHITECTURES=native \
+          -DMENISCUS_BUILD_BENCH=ON -DMENISCUS_PYTHON=OFF > /dev/null && cmake --build '$BUILD' -j $JOBS"
+fi
 section "meniscus info" 30 "$BUILD/meniscus" info
 section "cuda tests on the device (ctest -L cuda)" 300 ctest --test-dir "$BUILD" -L cuda --output-on-failure
-if [[ -n $SANITIZER ]]; then
-  for tool in memcheck racecheck initcheck synccheck; do
-    section "compute-sanitizer $tool (device stage tests)" 240 \
-      "$SANITIZER" --tool "$tool" --error-exitcode 1 "$TESTS" --gtest_filter="$STAGE_TESTS" --gtest_color=no
-  done
-else
-  section "compute-sanitizer" 5 bash -c 'echo "compute-sanitizer not found"; exit 1'
-fi
 section "GPU benchmark: blocks, 100k / 1M / 10M particles" 300 \
   "$BUILD/meniscus_bench_gpu" --backend cuda --counts "${COUNTS:-100000,1000000,10000000}"
 for f in metaball sph zhu-bridson anisotropic; do
@@ -64,6 +63,16 @@ for f in metaball sph zhu-bridson anisotropic; do
 done
 section "CPU backend on this machine: the same blocks" 300 \
   "$BUILD/meniscus_bench_gpu" --backend cpu --counts "${CPU_COUNTS:-100000,1000000,10000000}"
+
+# Last: the slowest section, and the one a short lease can best do without.
+if [[ -n $SANITIZER ]]; then
+  for tool in memcheck racecheck initcheck synccheck; do
+    section "compute-sanitizer $tool (device stage tests)" 240 \
+      "$SANITIZER" --tool "$tool" --error-exitcode 1 "$TESTS" --gtest_filter="$STAGE_TESTS" --gtest_color=no
+  done
+else
+  section "compute-sanitizer" 5 bash -c 'echo "compute-sanitizer not found"; exit 1'
+fi
 
 { echo; echo "=== verdicts"; printf '%s\n' "${verdicts[@]}"; } >> "$REPORT"
 echo "report: $REPORT"

@@ -11,6 +11,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <string>
 #include <utility>
 
@@ -84,7 +85,20 @@ class DeviceBuffer {
   void resize(std::size_t n) {
     if (n == size_) return;
     release();
-    if (n > 0) MENISCUS_CUDA_CHECK(cudaMalloc(reinterpret_cast<void**>(&data_), n * sizeof(T)));
+    if (n > 0) {
+      const cudaError_t status = cudaMalloc(reinterpret_cast<void**>(&data_), n * sizeof(T));
+      if (status == cudaErrorMemoryAllocation) {
+        (void)cudaGetLastError();  // not sticky: the device stays usable
+        data_ = nullptr;
+        std::size_t free_bytes = 0, total_bytes = 0;
+        (void)cudaMemGetInfo(&free_bytes, &total_bytes);
+        char message[160];
+        std::snprintf(message, sizeof message, "the CUDA device is out of memory: %.2f GB asked for, %.2f GB free of %.2f GB",
+                      double(n * sizeof(T)) / 1e9, double(free_bytes) / 1e9, double(total_bytes) / 1e9);
+        throw ResourceError(message);
+      }
+      MENISCUS_CUDA_CHECK(status);
+    }
     size_ = n;
   }
   void zero() {

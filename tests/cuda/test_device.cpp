@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "meniscus/backend.hpp"
 #include "meniscus/errors.hpp"
@@ -198,9 +199,20 @@ TEST(CudaFallback, OutOfDeviceMemoryFailsCudaAndAutoRunsOnTheCpu) {
   setenv("MENISCUS_EMULATED_DEVICE_MEMORY", "1000000", 1);
   setenv("MENISCUS_EMULATED_DEVICE_FOR_AUTO", "1", 1);
 #elif defined(MENISCUS_HAS_CUDA)
-  std::size_t free_bytes = 0;
-  for (const CudaDeviceInfo& d : cuda_devices()) free_bytes = d.free_memory;
-  cuda::DeviceBuffer<char> hog(free_bytes > (std::size_t(64) << 20) ? free_bytes - (std::size_t(32) << 20) : 0);
+  p.backend = Backend::cuda;
+  reconstruct(ps, p);  // the kernels loaded (lazily, into device memory) before the memory is taken
+  // Every byte the device will give, in halving chunks down to 1 MB: a small frame needs only a
+  // few MB (the H200 ran this frame in the 32 MB that an earlier version of this test left free).
+  std::vector<cuda::DeviceBuffer<char>> hog;
+  for (std::size_t chunk = std::size_t(1) << 32; chunk >= (std::size_t(1) << 20); chunk /= 2)
+    for (;;) {
+      try {
+        hog.emplace_back(chunk);
+      } catch (const std::exception&) {
+        break;
+      }
+    }
+  (void)cudaGetLastError();  // the last refusal is not an error of the run below
 #endif
   p.backend = Backend::cuda;
   try {

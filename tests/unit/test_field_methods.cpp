@@ -11,6 +11,7 @@
 #include "field/distance_field.hpp"
 #include "field/eigen_sym3_impl.hpp"
 #include "field/kernel_field.hpp"
+#include "field/kernel_impl.hpp"
 #include "meniscus/io.hpp"
 #include "meniscus/quality.hpp"
 #include "meniscus/reconstruct.hpp"
@@ -152,6 +153,23 @@ TEST(Kernels, YuTurkEllipsoidIsIsotropicInBulkFlatOnASheetAndClamped) {
     for (float y = -0.3f; y <= 0.3f; y += step)
       for (float z = -0.3f; z <= 0.3f; z += step) integral += anisotropic_kernel(s, {x, y, z}, R) * step * step * step;
   EXPECT_NEAR(integral, 1.0, 0.02);
+}
+
+// The shells' cube root is the correctly rounded one (cbrtf is not, and differs between glibc and
+// the device), computed with plain arithmetic that both backends round alike.
+TEST(Kernels, CubeRootIsCorrectlyRounded) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> exponent(-40, 38);
+  int tried = 0;
+  for (int i = 0; i < 200000; ++i) {
+    const float x = std::pow(10.0f, exponent(rng));
+    if (!(x > 0) || !std::isfinite(x)) continue;
+    ++tried;
+    ASSERT_EQ(cube_root(x), float(cbrtl(static_cast<long double>(x)))) << x;
+  }
+  EXPECT_GT(tried, 190000);
+  for (float x : {1.0f, 8.0f, 27.0f, 0.125f, 1e-36f, 1e36f}) EXPECT_EQ(cube_root(x), float(cbrtl(static_cast<long double>(x)))) << x;
+  EXPECT_EQ(cube_root(0.0f), 0.0f);
 }
 
 TEST(KernelField, EveryMethodIsNegativeInsideAndPositiveOutside) {

@@ -28,6 +28,7 @@
 #include "memory_scope.hpp"
 #include "mesh/voids.hpp"
 #include "meniscus/backend.hpp"
+#include "meniscus/distributed.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "meniscus/resources.hpp"
@@ -217,10 +218,18 @@ std::vector<float> velocity_weights(const Attribute& velocity, const HashGrid& g
 }  // namespace
 
 double estimate_spacing(const ParticleSet& particles, std::size_t max_samples) {
-  const std::size_t n = particles.size();
+  return estimate_spacing_parts(particles, 0, particles.size(), local_reduce(), max_samples);
+}
+
+double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::size_t n, const Reduce& reduce,
+                              std::size_t max_samples) {
   if (n < 2) throw InvalidParameter("cannot estimate the particle spacing from fewer than 2 particles; pass --spacing");
-  Vec3f lo = particles.positions[0], hi = lo;
-  for (const Vec3f& p : particles.positions) lo = min(lo, p), hi = max(hi, p);
+  // The frame's box: −hi is reduced by min with lo.
+  std::vector<float> box(6, INFINITY);
+  for (const Vec3f& p : part.positions)
+    for (int c = 0; c < 3; ++c) box[std::size_t(c)] = std::min(box[std::size_t(c)], p[c]), box[std::size_t(c) + 3] = std::min(box[std::size_t(c) + 3], -p[c]);
+  reduce.min(box);
+  const Vec3f lo{box[0], box[1], box[2]}, hi{-box[3], -box[4], -box[5]};
   const Vec3f ext = hi - lo;
   const double diag = length(ext);
   if (!(diag > 0)) throw InvalidParameter("all particles are at the same position; cannot estimate the spacing");
@@ -229,24 +238,55 @@ double estimate_spacing(const ParticleSet& particles, std::size_t max_samples) {
   double volume = double(std::max(ext.x, 1e-6f * float(diag))) * std::max(ext.y, 1e-6f * float(diag)) *
                   std::max(ext.z, 1e-6f * float(diag));
   const float cell = float(std::max(std::cbrt(volume / double(n)), diag * 1e-5));
-  const HashGrid grid(particles.positions, cell);
+  const HashGrid grid(part.positions, cell);
   const std::size_t samples = std::min(n, max_samples);
   const std::size_t stride = n / samples;
-  std::vector<float> nn(samples, -1.0f);
+  const std::size_t held = part.positions.size();
+  auto held_index = [&](std::size_t s) { return s * stride >= first && s * stride < first + held; };
+  // Every sample's position, from the part that holds it.
+  std::vector<float> at(3 * samples, INFINITY);
+  for (std::size_t s = 0; s < samples; ++s)
+    if (held_index(s))
+      for (int c = 0; c < 3; ++c) at[3 * s + std::size_t(c)] = part.positions[s * stride - first][c];
+  reduce.min(at);
+  auto sample = [&](std::size_t s) { return Vec3f{at[3 * s], at[3 * s + 1], at[3 * s + 2]}; };
+
+  // The nearest other particle of each sample (squared distance > 0): a bound from the part that
+  // holds the sample (the nearest within it, by growing spheres), then the minimum over every
+  // part within that bound. One part holding all: the nearest of the whole frame at once.
+  std::vector<float> nearest(samples, INFINITY);
+  const float widest = 2.0f * float(diag) + cell;
   tbb::parallel_for(std::size_t(0), samples, [&](std::size_t s) {
-    const Vec3f p = particles.positions[s * stride];
-    for (float r = cell; r <= 2.0f * float(diag) + cell; r *= 2.0f) {
+    if (!held_index(s)) return;
+    const Vec3f p = sample(s);
+    for (float r = cell; r <= widest; r *= 2.0f) {
       float best = INFINITY;
       grid.for_each_within(p, r, [&](uint32_t, float d2) {
         if (d2 > 0 && d2 < best) best = d2;
       });
       if (best <= r * r) {
-        nn[s] = std::sqrt(best);
+        nearest[s] = best;
         return;
       }
     }
   });
-  nn.erase(std::remove(nn.begin(), nn.end(), -1.0f), nn.end());
+  reduce.min(nearest);
+  if (n > held) {  // the other parts, within each sample's bound
+    tbb::parallel_for(std::size_t(0), samples, [&](std::size_t s) {
+      const float bound = nearest[s];
+      const float r = std::isfinite(bound) ? std::sqrt(bound) * (1 + 1e-5f) : widest;
+      float best = bound;
+      grid.for_each_within(sample(s), r, [&](uint32_t, float d2) {
+        if (d2 > 0 && d2 < best) best = d2;
+      });
+      nearest[s] = best;
+    });
+    reduce.min(nearest);
+  }
+  std::vector<float> nn;
+  nn.reserve(samples);
+  for (float d2 : nearest)
+    if (std::isfinite(d2)) nn.push_back(std::sqrt(d2));
   if (nn.empty()) throw InvalidParameter("cannot estimate the particle spacing: no two distinct particles");
   auto mid = nn.begin() + std::ptrdiff_t(nn.size() / 2);
   std::nth_element(nn.begin(), mid, nn.end());
@@ -254,13 +294,17 @@ double estimate_spacing(const ParticleSet& particles, std::size_t max_samples) {
 
   // Local density spacing: (ball volume / particles in the ball)^(1/3).
   const float radius = 2.5f * median_nn;
-  const HashGrid density_grid(particles.positions, radius);
-  std::vector<float> local(samples);
+  const HashGrid density_grid(part.positions, radius);
+  std::vector<uint64_t> counts(samples, 0);
   tbb::parallel_for(std::size_t(0), samples, [&](std::size_t s) {
     std::size_t count = 0;
-    density_grid.for_each_within(particles.positions[s * stride], radius, [&](uint32_t, float) { ++count; });
-    local[s] = std::cbrt(4.18879f * radius * radius * radius / float(std::max<std::size_t>(count, 1)));
+    density_grid.for_each_within(sample(s), radius, [&](uint32_t, float) { ++count; });
+    counts[s] = count;
   });
+  reduce.sum(counts);
+  std::vector<float> local(samples);
+  for (std::size_t s = 0; s < samples; ++s)
+    local[s] = std::cbrt(4.18879f * radius * radius * radius / float(std::max<uint64_t>(counts[s], 1)));
   auto quartile = local.begin() + std::ptrdiff_t(local.size() / 4);
   std::nth_element(local.begin(), quartile, local.end());
   return double(std::max(median_nn, *quartile));
@@ -333,11 +377,37 @@ double local_reach(const Params& p) {
 }
 
 Params resolve_frame_estimates(const ParticleSet& particles, const Params& params) {
-  const Params resolved = resolve_params(particles, params);
+  return resolve_frame_estimates_parts(particles, 0, particles.size(), params, local_reduce());
+}
+
+Params resolve_frame_estimates_parts(const ParticleSet& part, std::size_t first, std::size_t total,
+                                     const Params& params, const Reduce& reduce) {
+  params.validate();
   Params p = params;
-  p.spacing = resolved.spacing;
-  p.rest_density = resolved.rest_density;
-  p.velocity_reference = resolved.velocity_reference;
+  if (p.spacing == 0) p.spacing = estimate_spacing_parts(part, first, total, reduce);
+  // The median positive density and the 95th percentile speed of the whole frame (resolve_params'
+  // median_density and velocity_reference), selected over the parts.
+  std::vector<uint64_t> count(1, 0);
+  if (p.rest_density == 0 && (p.field == FieldMethod::sph || p.field == FieldMethod::anisotropic) &&
+      !mass_attribute(part)) {
+    std::vector<float> rho;
+    if (const Attribute* density = density_attribute(part))
+      for (float r : density->values)
+        if (r > 0) rho.push_back(r);
+    count[0] = rho.size();
+    reduce.sum(count);
+    if (count[0] > 0) p.rest_density = double(select_parts(rho, {count[0] / 2}, reduce)[0]);
+  }
+  if (p.velocity_weighted && p.velocity_reference == 0) {
+    std::vector<float> speed;
+    if (const Attribute* velocity = velocity_attribute(part))
+      for (std::size_t i = 0; i < velocity->size(); ++i)
+        speed.push_back(length(Vec3f{velocity->values[3 * i], velocity->values[3 * i + 1], velocity->values[3 * i + 2]}));
+    count[0] = speed.size();
+    reduce.sum(count);
+    if (count[0] > 0)
+      p.velocity_reference = double(select_parts(speed, {uint64_t(double(count[0] - 1) * 0.95)}, reduce)[0]);
+  }
   return p;
 }
 

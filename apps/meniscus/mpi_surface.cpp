@@ -19,9 +19,12 @@
 #include <vector>
 
 #include "io/atomic_file.hpp"
+#include "io/format_registry.hpp"
+#include "io/ply.hpp"
 #include "io/vtu.hpp"
 #include "meniscus/distributed.hpp"
 #include "meniscus/errors.hpp"
+#include "meniscus/io.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "stage_plan.hpp"
 
@@ -155,12 +158,23 @@ void receive_raw(void* data, std::size_t bytes, int from, int tag) {
     MPI_Recv(p + at, int(std::min(kChunk, bytes - at)), MPI_BYTE, from, tag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
 }
 
-/// A mesh, its arrays sent as they are (no packed copy): the sizes and attribute names first.
-void send_mesh(const TriangleMesh& m, int to, int tag) {
+enum Tag : int { kParticles = 1, kPiece = 2 };
+
+/// A piece travels to rank 0 in two messages, so that rank 0 holds only the positions of all the
+/// pieces at once (PieceWelder): first its counts, attribute names and positions, then, when rank 0
+/// asks for it by receiving, its attributes and triangles. Normals do not travel: the welded mesh's
+/// are computed again.
+struct PieceHead {
+  uint64_t vertices = 0, triangles = 0;
+  bool normals = false;
+  std::vector<Attribute> attributes;  // names and sizes; the values come with the second message
+};
+
+void send_piece_vertices(const TriangleMesh& m, int to, int tag) {
   Writer w;
   w.put(uint64_t(m.vertices.size()));
   w.put(uint64_t(m.triangles.size()));
-  w.put(uint64_t(m.normals.size()));
+  w.put(uint8_t(m.normals.size() == m.vertices.size()));
   w.put(uint64_t(m.attributes.size()));
   for (const Attribute& a : m.attributes) {
     w.put_string(a.name);
@@ -170,30 +184,157 @@ void send_mesh(const TriangleMesh& m, int to, int tag) {
   }
   send_bytes(w.bytes, to, tag);
   send_raw(m.vertices.data(), m.vertices.size() * sizeof(Vec3f), to, tag);
-  send_raw(m.triangles.data(), m.triangles.size() * sizeof(Triangle), to, tag);
-  send_raw(m.normals.data(), m.normals.size() * sizeof(Vec3f), to, tag);
-  for (const Attribute& a : m.attributes) send_raw(a.values.data(), a.values.size() * sizeof(float), to, tag);
 }
 
-TriangleMesh receive_mesh(int from, int tag) {
+void send_piece_rest(const TriangleMesh& m, int to, int tag) {
+  for (const Attribute& a : m.attributes) send_raw(a.values.data(), a.values.size() * sizeof(float), to, tag);
+  send_raw(m.triangles.data(), m.triangles.size() * sizeof(Triangle), to, tag);
+}
+
+PieceHead receive_piece_vertices(int from, int tag, std::vector<Vec3f>& positions) {
   const std::vector<char> head = receive_bytes(from, tag);
   Reader r{head};
-  TriangleMesh m;
-  m.vertices.resize(r.get<uint64_t>());
-  m.triangles.resize(r.get<uint64_t>());
-  m.normals.resize(r.get<uint64_t>());
-  m.attributes.resize(r.get<uint64_t>());
-  for (Attribute& a : m.attributes) {
+  PieceHead h;
+  h.vertices = r.get<uint64_t>();
+  h.triangles = r.get<uint64_t>();
+  h.normals = r.get<uint8_t>() != 0;
+  h.attributes.resize(r.get<uint64_t>());
+  for (Attribute& a : h.attributes) {
     a.name = r.get_string();
     a.components = r.get<int32_t>();
     a.integer = r.get<uint8_t>() != 0;
-    a.values.resize(r.get<uint64_t>());
+    a.values.resize(r.get<uint64_t>());  // sized here, filled by receive_piece_rest
   }
-  receive_raw(m.vertices.data(), m.vertices.size() * sizeof(Vec3f), from, tag);
-  receive_raw(m.triangles.data(), m.triangles.size() * sizeof(Triangle), from, tag);
-  receive_raw(m.normals.data(), m.normals.size() * sizeof(Vec3f), from, tag);
-  for (Attribute& a : m.attributes) receive_raw(a.values.data(), a.values.size() * sizeof(float), from, tag);
-  return m;
+  positions.resize(h.vertices);
+  receive_raw(positions.data(), positions.size() * sizeof(Vec3f), from, tag);
+  return h;
+}
+
+/// Fills the head's attribute values and returns the triangles.
+std::vector<Triangle> receive_piece_rest(PieceHead& h, int from, int tag) {
+  for (Attribute& a : h.attributes) receive_raw(a.values.data(), a.values.size() * sizeof(float), from, tag);
+  std::vector<Triangle> triangles(h.triangles);
+  receive_raw(triangles.data(), triangles.size() * sizeof(Triangle), from, tag);
+  return triangles;
+}
+
+/// The streamed gather (StreamPart): each rank sends its part in two messages, its written
+/// vertices first and, once rank 0 has written every rank's vertices, its triangles.
+void send_part(const StreamPart& part, int to, int tag) {
+  send_piece_vertices(part.written, to, tag);
+  send_raw(part.shared_up.data(), part.shared_up.size(), to, tag);
+  for (const Attribute& a : part.written.attributes) send_raw(a.values.data(), a.values.size() * sizeof(float), to, tag);
+  send_raw(part.written.normals.data(), part.written.normals.size() * sizeof(Vec3f), to, tag);
+  const uint64_t counts[2] = {part.triangles.size(), part.foreign.size()};
+  send_raw(counts, sizeof counts, to, tag);
+  send_raw(part.triangles.data(), part.triangles.size() * sizeof(Triangle), to, tag);
+  send_raw(part.foreign.data(), part.foreign.size() * sizeof(Vec3f), to, tag);
+}
+
+/// Rank 0: writes the PLY from its own part and the other ranks' as they come, the header from
+/// `counts` (written vertices and triangles of each rank). Returns the vertex count.
+std::size_t write_streamed(const std::string& path, StreamPart own, int ranks, const std::vector<uint64_t>& counts) {
+  std::size_t vertices = 0, triangles = 0;
+  for (int r = 0; r < ranks; ++r) vertices += counts[2 * std::size_t(r)], triangles += counts[2 * std::size_t(r) + 1];
+
+  // The vertices, rank by rank (rank 0's own first); the layout is the first non-empty part's.
+  StreamIndex index;
+  std::optional<io::PlyMeshWriter> writer;
+  auto write_vertices = [&](const StreamPart& part) {
+    index.add_written(part.written.vertices, part.shared_up);
+    if (part.written.vertices.empty()) return;
+    if (!writer) writer.emplace(path, vertices, triangles, part.written);
+    writer->add_vertices(part.written);
+  };
+  write_vertices(own);
+  own.written = {}, own.shared_up = {};
+  for (int r = 1; r < ranks; ++r) {
+    StreamPart part;
+    const PieceHead head = receive_piece_vertices(r, kPiece, part.written.vertices);
+    part.shared_up.resize(part.written.vertices.size());
+    receive_raw(part.shared_up.data(), part.shared_up.size(), r, kPiece);
+    part.written.attributes = head.attributes;
+    for (Attribute& a : part.written.attributes) receive_raw(a.values.data(), a.values.size() * sizeof(float), r, kPiece);
+    if (head.normals) {
+      part.written.normals.resize(part.written.vertices.size());
+      receive_raw(part.written.normals.data(), part.written.normals.size() * sizeof(Vec3f), r, kPiece);
+    }
+    write_vertices(part);
+  }
+  if (!writer) {  // no rank has a vertex: an empty mesh
+    writer.emplace(path, 0, 0, TriangleMesh{});
+  }
+
+  // The triangles, rank by rank.
+  index.resolve(0, own.triangles, own.foreign);
+  writer->add_triangles(own.triangles.data(), own.triangles.size());
+  own = {};
+  for (int r = 1; r < ranks; ++r) {
+    uint64_t n[2] = {0, 0};
+    receive_raw(n, sizeof n, r, kPiece);
+    std::vector<Triangle> t(n[0]);
+    std::vector<Vec3f> foreign(n[1]);
+    receive_raw(t.data(), t.size() * sizeof(Triangle), r, kPiece);
+    receive_raw(foreign.data(), foreign.size() * sizeof(Vec3f), r, kPiece);
+    index.resolve(std::size_t(r), t, foreign);
+    writer->add_triangles(t.data(), t.size());
+  }
+  writer->commit();
+  return vertices;
+}
+
+/// MPI_Allreduce as the frame-wide estimates' reductions (distributed.hpp).
+Reduce mpi_reduce() {
+  Reduce r;
+  r.min = [](std::vector<float>& v) {
+    MPI_Allreduce(MPI_IN_PLACE, v.data(), int(v.size()), MPI_FLOAT, MPI_MIN, MPI_COMM_WORLD);
+  };
+  r.sum = [](std::vector<uint64_t>& v) {
+    MPI_Allreduce(MPI_IN_PLACE, v.data(), int(v.size()), MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+  };
+  return r;
+}
+
+/// Every rank sends each rank the particles of its part within that rank's slab and halo; a
+/// rank's slab is what it receives, in rank order (the parts are consecutive ranges of the frame,
+/// so this is slab_particles() of the whole frame). Pairs of ranks exchange in K − 1 rounds.
+ParticleSet exchange_slabs(ParticleSet part, const Decomposition& d, int rank, int ranks) {
+  std::vector<ParticleSet> received(static_cast<std::size_t>(ranks));
+  received[std::size_t(rank)] = slab_particles(part, d, rank);
+  for (int round = 1; round < ranks; ++round) {
+    const int to = (rank + round) % ranks, from = (rank - round + ranks) % ranks;
+    const std::vector<char> out = pack(slab_particles(part, d, to));
+    uint64_t sizes[2] = {out.size(), 0};
+    MPI_Sendrecv(&sizes[0], 1, MPI_UINT64_T, to, kParticles, &sizes[1], 1, MPI_UINT64_T, from, kParticles,
+                 MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    std::vector<char> in(sizes[1]);
+    for (std::size_t at = 0; at < std::max(out.size(), in.size()); at += kChunk) {
+      const std::size_t n_out = at < out.size() ? std::min(kChunk, out.size() - at) : 0;
+      const std::size_t n_in = at < in.size() ? std::min(kChunk, in.size() - at) : 0;
+      MPI_Sendrecv(out.data() + std::min(at, out.size()), int(n_out), MPI_BYTE, to, kParticles,
+                   in.data() + std::min(at, in.size()), int(n_in), MPI_BYTE, from, kParticles, MPI_COMM_WORLD,
+                   MPI_STATUS_IGNORE);
+    }
+    received[std::size_t(from)] = unpack_particles(in);
+  }
+  part = {};
+  ParticleSet slab;
+  std::size_t n = 0;
+  for (const ParticleSet& p : received) n += p.size();
+  slab.positions.reserve(n);
+  for (const Attribute& a : received[std::size_t(rank)].attributes) slab.attributes.push_back({a.name, a.components, a.integer, {}});
+  for (ParticleSet& p : received) {
+    slab.positions.insert(slab.positions.end(), p.positions.begin(), p.positions.end());
+    if (p.size() > 0) {
+      if (p.attributes.size() != slab.attributes.size())
+        throw FormatError("", "", "the ranks' parts of the frame do not have the same attributes");
+      for (std::size_t a = 0; a < p.attributes.size(); ++a)
+        slab.attributes[a].values.insert(slab.attributes[a].values.end(), p.attributes[a].values.begin(),
+                                         p.attributes[a].values.end());
+    }
+    p = {};
+  }
+  return slab;
 }
 
 /// Whether every rank succeeded; a rank that failed prints its message first.
@@ -213,8 +354,6 @@ std::optional<std::string> attempt(F&& f) {
     return std::string(e.what());
   }
 }
-
-enum Tag : int { kParticles = 1, kPiece = 2 };
 
 /// What each rank reports to rank 0 for the stats.
 struct RankReport {
@@ -243,54 +382,88 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::pair<std::string, double>> stages;  // rank 0's view of the job
 
-  // Rank 0 reads the frame, makes the frame-wide estimates on it and cuts it into slabs.
-  ParticleSet all;
-  double estimates[3] = {0, 0, 0};  // spacing, rest density, reference speed
-  std::size_t total_particles = 0;
+  // The frame: a file of fixed-size records (binary PLY, raw .xyz) is read in parts, one per
+  // rank, and the frame-wide estimates and the cuts are reductions over the parts; any other file
+  // is read by rank 0, which makes them on the whole frame and scatters the slabs.
+  uint64_t records = 0;
+  if (rank == 0) records = particle_records(job.input);
+  MPI_Bcast(&records, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+  const bool in_parts = records >= uint64_t(ranks) && ranks > 1;
+  const Reduce reduce = mpi_reduce();
+  ParticleSet all;  // rank 0's whole frame, or each rank's part
+  Params given = job.params;
+  std::size_t total_particles = 0, first = 0;
   std::optional<std::string> error;
-  if (rank == 0)
+  if (in_parts) {
+    const uint64_t begin = records * uint64_t(rank) / uint64_t(ranks), end = records * uint64_t(rank + 1) / uint64_t(ranks);
+    ReadReport report;
+    error = attempt([&] { all = read_particle_range(job.input, begin, end - begin, job.read, &report); });
+    if (!all_ok(error, rank)) return 1;
+    // Where this part starts once particles with NaN/Inf coordinates are dropped.
+    uint64_t kept = all.size(), before = 0, sum = 0;
+    MPI_Exscan(&kept, &before, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+    MPI_Allreduce(&kept, &sum, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+    first = rank == 0 ? 0 : std::size_t(before), total_particles = std::size_t(sum);
+    if (total_particles == 0) error = fmt::format("{}: contains no particles once those with NaN/Inf coordinates are dropped", job.input);
+    if (!all_ok(rank == 0 ? error : std::nullopt, rank)) return 1;
+    error = attempt([&] { given = resolve_frame_estimates_parts(all, first, total_particles, job.params, reduce); });
+  } else if (rank == 0) {
     error = attempt([&] {
       all = read_particles(job.input, job.read);
-      const Params est = resolve_frame_estimates(all, job.params);
-      estimates[0] = est.spacing, estimates[1] = est.rest_density, estimates[2] = est.velocity_reference;
+      given = resolve_frame_estimates(all, job.params);
       total_particles = all.size();
     });
+  }
   if (!all_ok(error, rank)) return 1;
-  stages.emplace_back("read", seconds_since(t0));
+  stages.emplace_back(in_parts ? "read_parts" : "read", seconds_since(t0));
+  double estimates[3] = {given.spacing, given.rest_density, given.velocity_reference};
   MPI_Bcast(estimates, 3, MPI_DOUBLE, 0, MPI_COMM_WORLD);
-  Params given = job.params;
+  given = job.params;
   given.spacing = estimates[0], given.rest_density = estimates[1], given.velocity_reference = estimates[2];
 
   // The slabs (every rank computes the same cuts from the resolved parameters rank 0 sends).
   const auto t1 = std::chrono::steady_clock::now();
   Decomposition d;
-  std::vector<double> cuts_message(std::size_t(ranks) + 1);  // axis, halo, cuts
-  if (rank == 0)
-    error = attempt([&] {
-      d = decompose(all, resolve_params(all, given), ranks);
-      cuts_message[0] = d.axis, cuts_message[1] = d.halo;
-      std::copy(d.cuts.begin(), d.cuts.end(), cuts_message.begin() + 2);
-    });
-  if (!all_ok(error, rank)) return 1;
-  MPI_Bcast(cuts_message.data(), ranks + 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
-  d.ranks = ranks, d.axis = int(cuts_message[0]), d.halo = cuts_message[1];
-  d.cuts.assign(cuts_message.begin() + 2, cuts_message.end());
+  if (in_parts) {
+    error = attempt([&] { d = decompose_parts(all, total_particles, resolve_params(ParticleSet{{Vec3f{}}, {}}, given), ranks, reduce); });
+    if (!all_ok(error, rank)) return 1;
+  } else {
+    std::vector<double> cuts_message(std::size_t(ranks) + 1);  // axis, halo, cuts
+    if (rank == 0)
+      error = attempt([&] {
+        d = decompose(all, resolve_params(all, given), ranks);
+        cuts_message[0] = d.axis, cuts_message[1] = d.halo;
+        std::copy(d.cuts.begin(), d.cuts.end(), cuts_message.begin() + 2);
+      });
+    if (!all_ok(error, rank)) return 1;
+    MPI_Bcast(cuts_message.data(), ranks + 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    d.ranks = ranks, d.axis = int(cuts_message[0]), d.halo = cuts_message[1];
+    d.cuts.assign(cuts_message.begin() + 2, cuts_message.end());
+  }
 
-  // Scatter: each rank its slab with its halo, attributes travelling with the particles.
+  // Each rank its slab with its halo, attributes travelling with the particles: from rank 0, or
+  // from every rank's part (concatenated in rank order: the frame's order, as slab_particles keeps).
   ParticleSet slab;
-  if (rank == 0) {
+  if (in_parts) {
+    error = attempt([&] { slab = exchange_slabs(std::move(all), d, rank, ranks); });
+    all = {};
+  } else if (rank == 0) {
     for (int r = 1; r < ranks; ++r) send_bytes(pack(slab_particles(all, d, r)), r, kParticles);
     slab = slab_particles(all, d, 0);
-    ParticleSet().positions.swap(all.positions);
     all = {};
   } else {
     error = attempt([&] { slab = unpack_particles(receive_bytes(0, kParticles)); });
   }
   if (!all_ok(error, rank)) return 1;
-  stages.emplace_back("scatter", seconds_since(t1));
+  MPI_Bcast(&total_particles, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+  stages.emplace_back(in_parts ? "exchange" : "scatter", seconds_since(t1));
 
   // Every rank surfaces its slab and keeps the triangles it owns.
   const auto t2 = std::chrono::steady_clock::now();
+  // A PLY output is written as the pieces come (each vertex once; rank 0 holds one piece at a
+  // time); other formats are welded whole on rank 0 first.
+  const bool streamed = !job.pieces && io::format_extension(job.output) == ".ply";
+  Seams seams;
   TriangleMesh piece;
   Result result;
   RankReport report;
@@ -298,7 +471,7 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
   error = attempt([&] {
     if (slab.size() == 0) return;  // a slab without particles owns no triangle
     result = reconstruct(slab, given);
-    keep_owned(result.mesh, d, rank);
+    keep_owned(result.mesh, d, rank, streamed ? &seams : nullptr);
     piece = std::move(result.mesh);
     result.mesh = {};
   });
@@ -308,9 +481,12 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
   report.owned_triangles = double(piece.triangles.size());
   if (!all_ok(error, rank)) return 1;
 
-  // --pieces: every rank writes its own; rank 0 the index.
+  // --pieces: every rank writes its own; rank 0 the index. Otherwise rank 0 welds the pieces as
+  // they come (PieceWelder): every piece's positions first, then each piece's attributes and
+  // triangles, one piece at a time.
   const auto t3 = std::chrono::steady_clock::now();
-  std::vector<TriangleMesh> pieces;
+  TriangleMesh mesh;
+  std::size_t streamed_vertices = 0;
   if (job.pieces) {
     error = attempt([&] { io::write_vtp_mesh(piece_path(job.output, rank), piece); });
     if (!all_ok(error, rank)) return 1;
@@ -321,14 +497,59 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
     }
     if (!all_ok(error, rank)) return 1;
     piece = {};
+  } else if (streamed) {
+    StreamPart part = stream_part(std::move(piece), seams, rank);
+    piece = {}, seams = {};
+    const uint64_t mine[2] = {part.written.vertices.size(), part.triangles.size()};
+    std::vector<uint64_t> counts(2 * std::size_t(ranks));
+    MPI_Gather(mine, 2, MPI_UINT64_T, counts.data(), 2, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+    if (rank == 0) {
+      error = attempt([&] { streamed_vertices = write_streamed(job.output, std::move(part), ranks, counts); });
+    } else {
+      send_part(part, 0, kPiece);
+      part = {};
+    }
   } else if (rank == 0) {
-    pieces.push_back(std::move(piece));
-    for (int r = 1; r < ranks; ++r) pieces.push_back(receive_mesh(r, kPiece));
+    error = attempt([&] {
+      PieceWelder welder(static_cast<std::size_t>(ranks));
+      std::vector<PieceHead> heads(static_cast<std::size_t>(ranks));
+      bool normals = piece.normals.size() == piece.vertices.size();
+      std::size_t triangles = piece.triangles.size();
+      std::vector<Vec3f>().swap(piece.normals);
+      welder.add_vertices(0, std::move(piece.vertices));
+      for (int r = 1; r < ranks; ++r) {
+        std::vector<Vec3f> positions;
+        heads[std::size_t(r)] = receive_piece_vertices(r, kPiece, positions);
+        normals = normals && heads[std::size_t(r)].normals;
+        triangles += heads[std::size_t(r)].triangles;
+        welder.add_vertices(std::size_t(r), std::move(positions));
+      }
+      welder.weld_vertices();
+      welder.reserve_triangles(triangles);
+      welder.add_attributes(0, piece.attributes);
+      welder.add_triangles(0, piece.triangles);
+      piece = {};
+      for (int r = 1; r < ranks; ++r) {
+        PieceHead& h = heads[std::size_t(r)];
+        const std::vector<Triangle> t = receive_piece_rest(h, r, kPiece);
+        welder.add_attributes(std::size_t(r), h.attributes);
+        h = {};
+        welder.add_triangles(std::size_t(r), t);
+      }
+      mesh = welder.finish(normals);
+    });
   } else {
-    send_mesh(piece, 0, kPiece);
+    send_piece_vertices(piece, 0, kPiece);
+    send_piece_rest(piece, 0, kPiece);
     piece = {};
   }
-  stages.emplace_back(job.pieces ? "write_pieces" : "gather", seconds_since(t3));
+  if (error) {
+    // Only rank 0 can fail here, in the weld (pieces that do not fit together), with ranks still
+    // waiting to send: nothing is written, every rank stops.
+    fmt::print(stderr, "meniscus: rank 0: error: {}\n", *error);
+    MPI_Abort(MPI_COMM_WORLD, 1);
+  }
+  stages.emplace_back(job.pieces ? "write_pieces" : streamed ? "gather_write" : "gather_weld", seconds_since(t3));
   report.peak_bytes = double(peak_rss_bytes());
   std::vector<RankReport> reports(static_cast<std::size_t>(ranks));
   MPI_Gather(&report, 5, MPI_DOUBLE, reports.data(), 5, MPI_DOUBLE, 0, MPI_COMM_WORLD);
@@ -345,14 +566,15 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
       // The counts: the welded mesh's, or with --pieces the pieces' sums (seam vertices in each piece).
       std::size_t vertices = 0, triangles = 0;
       for (const RankReport& r : reports) vertices += std::size_t(r.owned_vertices), triangles += std::size_t(r.owned_triangles);
-      if (!job.pieces) {
-        const TriangleMesh mesh = weld_pieces(std::move(pieces));
+      if (streamed) {
+        vertices = streamed_vertices;
+        reports[0].peak_bytes = double(peak_rss_bytes());  // rank 0's peak with the gather and the write
+      } else if (!job.pieces) {
         vertices = mesh.vertices.size();
-        pieces.clear();
-        stages.emplace_back("weld", seconds_since(t4));
-        const auto t5 = std::chrono::steady_clock::now();
         write_mesh(job.output, mesh);
-        stages.emplace_back("write", seconds_since(t5));
+        mesh = {};
+        stages.emplace_back("write", seconds_since(t4));
+        reports[0].peak_bytes = double(peak_rss_bytes());  // rank 0's peak with the weld and the write
       }
       double total = 0, peak = 0;
       for (const auto& [name, s] : stages) total += s;

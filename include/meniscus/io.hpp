@@ -30,6 +30,18 @@ struct ReadReport {
 ParticleSet read_particles(const std::string& path, const ReadOptions& options = {},
                            ReadReport* report = nullptr);
 
+/// How many particles `path` holds when a part of it can be read alone — fixed-size records at
+/// known offsets: raw .xyz, and binary .ply whose first element is the vertices with scalar
+/// properties only, not compressed — else 0 (read it whole with read_particles). Reads only
+/// the file's size and header. Under MPI each rank reads its own part of such a file.
+std::size_t particle_records(const std::string& path);
+
+/// Particles [first, first + count) of a file particle_records() accepts, with every attribute,
+/// as read_particles() gives them: NaN/Inf positions refused naming the particle's index in the
+/// file, or dropped with options.drop_invalid (counted in `report`). An empty range is allowed.
+ParticleSet read_particle_range(const std::string& path, std::size_t first, std::size_t count,
+                                const ReadOptions& options = {}, ReadReport* report = nullptr);
+
 /// Writes a mesh (.ply binary little endian, with normals and attributes). The file is written
 /// to a temporary name in the same directory and renamed when complete, so a failure never
 /// leaves a partial file. Throws IoError / InvalidParameter (unknown extension).

@@ -5,6 +5,8 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -190,6 +192,87 @@ ParticleSet read_particles(const std::string& path, const ReadOptions& options, 
                           ? fmt::format("contains no particles once the {} with NaN/Inf coordinates are dropped",
                                         r.dropped_invalid)
                           : std::string("contains no particles"));
+  return particles;
+}
+
+namespace {
+
+/// The fixed records of a particle file (particle_records), from its size and first bytes.
+struct Records {
+  std::size_t offset = 0, record = 0, count = 0;
+  std::optional<io::PlyRecords> ply;  // a PLY's header for a part
+};
+
+std::optional<Records> fixed_records(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return std::nullopt;
+  in.seekg(0, std::ios::end);
+  const auto end = in.tellg();
+  if (end <= 0) return std::nullopt;
+  const std::size_t size = std::size_t(end);
+  io::Bytes head(std::min<std::size_t>(size, std::size_t(1) << 16));
+  in.seekg(0);
+  if (!in.read(reinterpret_cast<char*>(head.data()), std::streamsize(head.size()))) return std::nullopt;
+  if (head.size() >= 2 && head[0] == 0x1f && head[1] == 0x8b) return std::nullopt;  // gzip
+  const io::Source source{head, path, false};
+  const io::ParticleReader* reader = io::choose(io::particle_readers(), source);
+  if (!reader) return std::nullopt;
+  Records r;
+  if (reader->name == "xyz") {
+    r.record = 12, r.count = size / 12;
+  } else if (reader->name == "ply") {
+    r.ply = io::ply_vertex_records(source);
+    if (!r.ply) return std::nullopt;
+    r.offset = r.ply->offset, r.record = r.ply->record, r.count = r.ply->count;
+  } else {
+    return std::nullopt;
+  }
+  // The records must all be there (a short file is read_particles' to report).
+  if (r.record == 0 || r.count == 0 || r.offset + r.count * r.record > size) return std::nullopt;
+  if (reader->name == "xyz" && size % 12 != 0) return std::nullopt;
+  return r;
+}
+
+}  // namespace
+
+std::size_t particle_records(const std::string& path) {
+  const std::optional<Records> r = fixed_records(path);
+  return r ? r->count : 0;
+}
+
+ParticleSet read_particle_range(const std::string& path, std::size_t first, std::size_t count,
+                                const ReadOptions& options, ReadReport* report) {
+  const std::optional<Records> r = fixed_records(path);
+  if (!r) throw InvalidParameter(fmt::format("'{}' cannot be read in parts (not fixed-size records)", path));
+  if (first > r->count || count > r->count - first)
+    throw InvalidParameter(fmt::format("'{}': particles {}..{} asked for, the file has {}", path, first, first + count,
+                                       r->count));
+  ReadReport local;
+  ReadReport& rep = report ? *report : local;
+  rep = ReadReport{};
+  if (count == 0) return ParticleSet{};
+  // The part's bytes, behind a header for them alone (PLY): the format's own reader decodes them.
+  const std::string header = r->ply ? io::ply_range_header(*r->ply, count) : std::string();
+  io::Bytes bytes(header.size() + count * r->record);
+  std::copy(header.begin(), header.end(), bytes.begin());
+  std::ifstream in(path, std::ios::binary);
+  in.seekg(std::streamoff(r->offset + first * r->record));
+  if (!in.read(reinterpret_cast<char*>(bytes.data() + header.size()), std::streamsize(count * r->record)))
+    throw IoError(fmt::format("cannot read particles {}..{} of '{}'", first, first + count, path));
+  const io::Source source{bytes, path, false};
+  const io::ParticleReader* reader = io::choose(io::particle_readers(), source);
+  ParticleSet particles = reader->read(source, options, &rep);
+  particles.validate();
+  const std::size_t n = particles.positions.size();
+  for (std::size_t i = 0; i < n; ++i)
+    if (!options.drop_invalid && !io::finite(particles.positions[i])) {
+      const Vec3f p = particles.positions[i];
+      throw FormatError(path, fmt::format("particle {}", first + i),
+                        fmt::format("expected finite coordinates, found ({}, {}, {}) (ReadOptions::drop_invalid "
+                                    "drops such particles)",
+                                    p.x, p.y, p.z));
+    }
+  io::handle_invalid(particles, path, options, &rep);
   return particles;
 }
 

@@ -620,6 +620,37 @@ std::vector<Vec3f> gather(const VertexColumns& v, std::size_t ix, std::size_t iy
   return out;
 }
 
+}  // namespace
+
+std::optional<PlyRecords> ply_vertex_records(const Source& head) {
+  if (!sniff_ply(head.bytes)) return std::nullopt;
+  const std::string_view text(reinterpret_cast<const char*>(head.bytes.data()), head.bytes.size());
+  if (text.find("end_header") == std::string_view::npos) return std::nullopt;  // the head is too short
+  Header h;
+  try {
+    h = parse_header(head);
+  } catch (const FormatError&) {
+    return std::nullopt;  // read_particles says what is wrong
+  }
+  if (h.encoding == Encoding::ascii || h.elements.empty() || h.elements[0].name != "vertex" ||
+      h.elements[0].has_list())
+    return std::nullopt;
+  const Element& v = h.elements[0];
+  PlyRecords r;
+  r.offset = h.body_offset;
+  r.record = v.min_binary_size();
+  r.count = v.count;
+  r.format = h.encoding == Encoding::binary_little_endian ? "binary_little_endian" : "binary_big_endian";
+  for (const Property& p : v.properties) r.properties += fmt::format("property {} {}\n", info(p.type).name, p.name);
+  return r;
+}
+
+std::string ply_range_header(const PlyRecords& records, std::size_t count) {
+  return fmt::format("ply\nformat {} 1.0\nelement vertex {}\n{}end_header\n", records.format, count, records.properties);
+}
+
+namespace {
+
 struct Decoded {
   Header header;
   VertexColumns vertices;
@@ -775,13 +806,67 @@ TriangleMesh read_ply_mesh(const Source& source) {
   return mesh;
 }
 
-void write_ply_mesh(const std::string& path, const TriangleMesh& mesh) {
-  const std::size_t nv = mesh.vertices.size();
-  if (nv > std::numeric_limits<uint32_t>::max())
-    throw InvalidParameter(fmt::format("cannot write '{}': {} vertices do not fit PLY's uint vertex indices", path, nv));
-  check_mesh_for_writing(path, mesh, "PLY");
-  const std::vector<OutputProperty> properties = output_properties(mesh);
-  // Integer attributes must survive the int conversion; refuse before anything is written.
+struct PlyMeshWriter::State {
+  std::string path;
+  std::size_t vertices = 0, triangles = 0, vertices_written = 0, triangles_written = 0;
+  bool normals = false;
+  std::vector<std::pair<std::string, int>> layout;  // attribute names and components
+  AtomicFile file;
+  std::vector<uint8_t> chunk;
+  static constexpr std::size_t flush_at = std::size_t(1) << 20;
+
+  State(const std::string& p) : path(p), file(p) { chunk.reserve(flush_at + 4096); }
+  void flush_if_full() {
+    if (chunk.size() >= flush_at) {
+      file.write(chunk);
+      chunk.clear();
+    }
+  }
+};
+
+PlyMeshWriter::PlyMeshWriter(const std::string& path, std::size_t vertices, std::size_t triangles,
+                             const TriangleMesh& layout) {
+  if (vertices > std::numeric_limits<uint32_t>::max())
+    throw InvalidParameter(
+        fmt::format("cannot write '{}': {} vertices do not fit PLY's uint vertex indices", path, vertices));
+  // The property list from the layout's attributes (their names checked; their values not read).
+  TriangleMesh named;  // one vertex of the layout
+  named.vertices.resize(1);
+  named.normals.resize(layout.normals.empty() ? 0 : 1);
+  for (const Attribute& a : layout.attributes)
+    named.attributes.push_back({a.name, a.components, a.integer, std::vector<float>(std::size_t(std::max(a.components, 0)))});
+  const std::vector<OutputProperty> properties = output_properties(named);
+  std::string header = fmt::format("ply\nformat binary_little_endian 1.0\ncomment written by meniscus\n"
+                                   "element vertex {}\nproperty float x\nproperty float y\nproperty float z\n",
+                                   vertices);
+  if (!layout.normals.empty()) header += "property float nx\nproperty float ny\nproperty float nz\n";
+  for (const OutputProperty& p : properties)
+    header += fmt::format("property {} {}\n",
+                          p.encode == Encode::color_uchar ? "uchar" : p.encode == Encode::int32 ? "int" : "float",
+                          p.name);
+  header += fmt::format("element face {}\nproperty list uchar uint vertex_indices\nend_header\n", triangles);
+  state_ = std::make_unique<State>(path);
+  state_->vertices = vertices, state_->triangles = triangles, state_->normals = !layout.normals.empty();
+  for (const Attribute& a : layout.attributes) state_->layout.emplace_back(a.name, a.components);
+  state_->file.write(header);
+}
+
+PlyMeshWriter::~PlyMeshWriter() = default;
+
+void PlyMeshWriter::add_vertices(const TriangleMesh& part) {
+  State& s = *state_;
+  const std::size_t nv = part.vertices.size();
+  if (s.vertices_written + nv > s.vertices)
+    throw InvalidParameter(fmt::format("cannot write '{}': more than the {} vertices of its header", s.path, s.vertices));
+  if (s.normals && part.normals.size() != nv)
+    throw InvalidParameter(fmt::format("cannot write PLY '{}': {} normals for {} vertices", s.path, part.normals.size(), nv));
+  bool same_layout = part.attributes.size() == s.layout.size();
+  for (std::size_t a = 0; same_layout && a < s.layout.size(); ++a)
+    same_layout = part.attributes[a].name == s.layout[a].first && part.attributes[a].components == s.layout[a].second;
+  if (!same_layout)
+    throw InvalidParameter(fmt::format("cannot write '{}': a part's attributes are not the header's", s.path));
+  const std::vector<OutputProperty> properties = output_properties(part);
+  // Integer attributes must survive the int conversion; refuse before the part is written.
   for (const OutputProperty& p : properties) {
     if (p.encode != Encode::int32) continue;
     const std::size_t c = std::size_t(p.attribute->components);
@@ -790,35 +875,19 @@ void write_ply_mesh(const std::string& path, const TriangleMesh& mesh) {
       if (!(v >= -2147483648.0f && v < 2147483648.0f))
         throw InvalidParameter(fmt::format("cannot write '{}': integer attribute '{}' has value {} at vertex {}, "
                                            "outside the int range",
-                                           path, p.attribute->name, v, i));
+                                           s.path, p.attribute->name, v, s.vertices_written + i));
     }
   }
-
-  std::string header = fmt::format("ply\nformat binary_little_endian 1.0\ncomment written by meniscus\n"
-                                   "element vertex {}\nproperty float x\nproperty float y\nproperty float z\n",
-                                   nv);
-  if (!mesh.normals.empty()) header += "property float nx\nproperty float ny\nproperty float nz\n";
-  for (const OutputProperty& p : properties)
-    header += fmt::format("property {} {}\n",
-                          p.encode == Encode::color_uchar ? "uchar" : p.encode == Encode::int32 ? "int" : "float",
-                          p.name);
-  header += fmt::format("element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
-                        mesh.triangles.size());
-
-  AtomicFile file(path);
-  file.write(header);
-  std::vector<uint8_t> chunk;
-  constexpr std::size_t flush_at = std::size_t(1) << 20;
-  chunk.reserve(flush_at + 4096);
+  std::vector<uint8_t>& chunk = s.chunk;
   for (std::size_t i = 0; i < nv; ++i) {
-    const Vec3f p = mesh.vertices[i];
+    const Vec3f p = part.vertices[i];
     put_f32(chunk, p.x);
     put_f32(chunk, p.y);
     put_f32(chunk, p.z);
-    if (!mesh.normals.empty()) {
-      put_f32(chunk, mesh.normals[i].x);
-      put_f32(chunk, mesh.normals[i].y);
-      put_f32(chunk, mesh.normals[i].z);
+    if (s.normals) {
+      put_f32(chunk, part.normals[i].x);
+      put_f32(chunk, part.normals[i].y);
+      put_f32(chunk, part.normals[i].z);
     }
     for (const OutputProperty& prop : properties) {
       const float v = prop.attribute->values[i * std::size_t(prop.attribute->components) + std::size_t(prop.component)];
@@ -832,23 +901,50 @@ void write_ply_mesh(const std::string& path, const TriangleMesh& mesh) {
         }
       }
     }
-    if (chunk.size() >= flush_at) {
-      file.write(chunk);
-      chunk.clear();
-    }
+    s.flush_if_full();
   }
-  for (const Triangle& t : mesh.triangles) {
-    put_u8(chunk, 3);
-    put_u32(chunk, t[0]);
-    put_u32(chunk, t[1]);
-    put_u32(chunk, t[2]);
-    if (chunk.size() >= flush_at) {
-      file.write(chunk);
-      chunk.clear();
-    }
+  s.vertices_written += nv;
+}
+
+void PlyMeshWriter::add_triangles(const Triangle* triangles, std::size_t count) {
+  State& s = *state_;
+  if (s.vertices_written != s.vertices)
+    throw InvalidParameter(fmt::format("cannot write '{}': triangles before all {} vertices", s.path, s.vertices));
+  if (s.triangles_written + count > s.triangles)
+    throw InvalidParameter(fmt::format("cannot write '{}': more than the {} triangles of its header", s.path, s.triangles));
+  for (std::size_t i = 0; i < count; ++i) {
+    const Triangle& t = triangles[i];
+    for (const uint32_t v : t)
+      if (v >= s.vertices)
+        throw InvalidParameter(fmt::format("cannot write PLY '{}': triangle {} refers to vertex {}, but the mesh has "
+                                           "{} vertices",
+                                           s.path, s.triangles_written + i, v, s.vertices));
+    put_u8(s.chunk, 3);
+    put_u32(s.chunk, t[0]);
+    put_u32(s.chunk, t[1]);
+    put_u32(s.chunk, t[2]);
+    s.flush_if_full();
   }
-  file.write(chunk);
-  file.commit();
+  s.triangles_written += count;
+}
+
+void PlyMeshWriter::commit() {
+  State& s = *state_;
+  if (s.vertices_written != s.vertices || s.triangles_written != s.triangles)
+    throw InvalidParameter(fmt::format("cannot write '{}': {} of {} vertices and {} of {} triangles given", s.path,
+                                       s.vertices_written, s.vertices, s.triangles_written, s.triangles));
+  s.file.write(s.chunk);
+  s.chunk.clear();
+  s.file.commit();
+}
+
+void write_ply_mesh(const std::string& path, const TriangleMesh& mesh) {
+  check_mesh_for_writing(path, mesh, "PLY");
+  output_properties(mesh);  // names PLY cannot hold are refused before the file is opened
+  PlyMeshWriter writer(path, mesh.vertices.size(), mesh.triangles.size(), mesh);
+  writer.add_vertices(mesh);
+  writer.add_triangles(mesh.triangles.data(), mesh.triangles.size());
+  writer.commit();
 }
 
 }  // namespace meniscus::io

@@ -3,7 +3,8 @@
 the same vertex positions (as float32 bit patterns), the same triangles (as triples of positions,
 turned to start at their smallest vertex, orientation kept), closed and edge-manifold.
 
-    same_mesh.py A.ply B.ply     exit 0 when they are, 1 (with what differs) when not
+    same_mesh.py A.ply B.ply                 exit 0 when they are, 1 (with what differs) when not
+    same_mesh.py --attributes A.ply B.ply    also every per-vertex attribute but the normals, bit for bit
 """
 import sys
 
@@ -11,7 +12,7 @@ import meshio
 import numpy as np
 
 
-def canonical(path):
+def canonical(path, attributes=None):
     m = meshio.read(path)
     v = np.ascontiguousarray(m.points.astype(np.float32))
     t = np.concatenate([c.data for c in m.cells if c.type == "triangle"]).astype(np.int64)
@@ -26,6 +27,10 @@ def canonical(path):
         turn = (t[:, 0] > t[:, 1]) | (t[:, 0] > t[:, 2])
         t[turn] = np.roll(t[turn], -1, axis=1)
     t = t[np.lexsort((t[:, 2], t[:, 1], t[:, 0]))]
+    if attributes is not None:
+        for name, values in m.point_data.items():
+            if name not in ("nx", "ny", "nz", "Normals", "normals"):
+                attributes[name] = np.ascontiguousarray(np.asarray(values)[order]).view(np.uint8)
     return keys[order], t
 
 
@@ -36,17 +41,27 @@ def edge_counts(t):
 
 
 def main():
-    (va, ta), (vb, tb) = canonical(sys.argv[1]), canonical(sys.argv[2])
+    args = [a for a in sys.argv[1:] if a != "--attributes"]
+    with_attributes = len(args) < len(sys.argv) - 1
+    aa, ab = ({}, {}) if with_attributes else (None, None)
+    (va, ta), (vb, tb) = canonical(args[0], aa), canonical(args[1], ab)
     if va.shape != vb.shape or ta.shape != tb.shape:
         sys.exit(f"counts differ: {len(va)} vertices, {len(ta)} triangles against {len(vb)}, {len(tb)}")
     if not np.array_equal(va, vb):
         sys.exit(f"{int(np.any(va != vb, axis=1).sum())} vertex positions differ")
     if not np.array_equal(ta, tb):
         sys.exit(f"{int(np.any(ta != tb, axis=1).sum())} triangles differ")
+    if with_attributes:
+        if sorted(aa) != sorted(ab) or not aa:
+            sys.exit(f"attributes differ: {sorted(aa)} against {sorted(ab)}")
+        for name in aa:
+            if not np.array_equal(aa[name], ab[name]):
+                sys.exit(f"attribute {name} differs")
     counts = edge_counts(ta)
     if not np.all(counts == 2):
         sys.exit(f"not closed and manifold: {int((counts != 2).sum())} edges not in exactly two triangles")
-    print(f"same: {len(va)} vertices, {len(ta)} triangles, bit for bit; closed and manifold")
+    extra = f" and {len(aa)} attribute arrays" if with_attributes else ""
+    print(f"same: {len(va)} vertices, {len(ta)} triangles{extra}, bit for bit; closed and manifold")
 
 
 if __name__ == "__main__":

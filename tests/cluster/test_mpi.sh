@@ -64,6 +64,25 @@ assert all(r['peak_memory_bytes'] > 0 and r['surface_seconds'] > 0 for r in j['p
 check dam_break_23 "$data/ply/dam_break_frame_23_24389_particles.ply"
 check dam_break_9_anisotropic_velocity "$data/dam_break_frame_9_6859_particles.bgeo" --field anisotropic --transfer velocity
 check splash splash.ply --spacing 0.01
+# A binary PLY with a density and a velocity: read in parts, the spacing, the rest density and the
+# reference speed reduced over the parts.
+check dam_break_9_parts_sph_velocity "$data/ply/dam_break_frame_9_6859_particles.ply" --field sph --velocity-weighted
+/usr/bin/python3 -c "
+import json
+for name, read, spread in [('dam_break_23', 'read_parts', 'exchange'), ('dam_break_9_parts_sph_velocity', 'read_parts', 'exchange'),
+                           ('dam_break_9_anisotropic_velocity', 'read', 'scatter')]:
+    stages = json.load(open(name + '.k4.json'))['stages']
+    assert read in stages and spread in stages, (name, list(stages))
+print('fixed-record PLY read in parts by every rank; bgeo read by rank 0')
+" || fail "the read stages"
+# The transferred velocity through the streamed gather, and a format welded whole on rank 0 (.obj).
+same --attributes dam_break_9_anisotropic_velocity.single.ply dam_break_9_anisotropic_velocity.k4.ply > velocity.same ||
+  { cat velocity.same; fail "the velocity of K=4 differs from one process"; }
+echo "velocity: $(cat velocity.same)"
+"${mpi[@]}" 4 "$meniscus" surface "$data/ply/dam_break_frame_23_24389_particles.ply" -o welded.k4.obj -q --backend cpu ||
+  fail "mpirun -n 4 to .obj failed"
+same dam_break_23.single.ply welded.k4.obj > welded.same || { cat welded.same; fail ".obj from 4 ranks differs from one process"; }
+echo "obj: $(cat welded.same)"
 /usr/bin/python3 -c "
 import json
 j = json.load(open('splash.k4.json'))

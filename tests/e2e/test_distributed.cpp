@@ -2,10 +2,13 @@
 // tests/cluster/test_mpi.sh): the slabs' owned pieces weld into the whole frame's mesh, bit for bit.
 #include <gtest/gtest.h>
 
+#include <barrier>
 #include <cstring>
 #include <filesystem>
 #include <map>
 #include <numeric>
+#include <random>
+#include <thread>
 #include <tuple>
 
 #include "meniscus/distributed.hpp"
@@ -39,18 +42,41 @@ Split expect_split_matches(const ParticleSet& particles, Params given, int ranks
   EXPECT_EQ(int(d.cuts.size()), ranks - 1) << what;
   EXPECT_GE(d.halo, local_reach(p)) << what;
   std::vector<TriangleMesh> pieces;
+  std::vector<StreamPart> parts;
   Split s;
   for (int r = 0; r < ranks; ++r) {
     const ParticleSet slab = slab_particles(particles, d, r);
     s.largest_slab = std::max(s.largest_slab, slab.size());
     if (slab.size() == 0) {
       pieces.emplace_back();
+      parts.emplace_back();
       continue;
     }
-    pieces.push_back(owned_piece(reconstruct(slab, given).mesh, d, r));
+    TriangleMesh piece = reconstruct(slab, given).mesh;
+    Seams seams;
+    keep_owned(piece, d, r, &seams);
+    parts.push_back(stream_part(piece, seams, r));
+    pieces.push_back(std::move(piece));
     s.piece_triangles += pieces.back().triangles.size();
   }
-  const TriangleMesh canonical = weld_pieces({whole}), merged = weld_pieces(pieces);
+  // The streamed gather (each vertex written once, by the lowest rank on it; rank by rank): the
+  // same surface, every seam reference found.
+  StreamIndex index;
+  TriangleMesh streamed;
+  for (const StreamPart& part : parts) {
+    index.add_written(part.written.vertices, part.shared_up);
+    streamed.vertices.insert(streamed.vertices.end(), part.written.vertices.begin(), part.written.vertices.end());
+  }
+  for (std::size_t r = 0; r < parts.size(); ++r) {
+    std::vector<Triangle> t = parts[r].triangles;
+    index.resolve(r, t, parts[r].foreign);
+    streamed.triangles.insert(streamed.triangles.end(), t.begin(), t.end());
+  }
+  EXPECT_EQ(index.vertices(), whole.vertices.size()) << what << ": streamed vertices";
+  const TriangleMesh streamed_canonical = weld_pieces({streamed}), canonical = weld_pieces({whole});
+  EXPECT_TRUE(same_bits(streamed_canonical.vertices, canonical.vertices)) << what << ": streamed positions";
+  EXPECT_TRUE(streamed_canonical.triangles == canonical.triangles) << what << ": streamed triangles";
+  const TriangleMesh merged = weld_pieces(pieces);
   EXPECT_EQ(merged.vertices.size(), whole.vertices.size()) << what;
   EXPECT_EQ(merged.triangles.size(), whole.triangles.size()) << what;
   EXPECT_EQ(s.piece_triangles, whole.triangles.size()) << what << ": a triangle in two pieces, or in none";
@@ -146,6 +172,176 @@ TEST(Distributed, WeldRefusesCoincidentVerticesOfOnePiece) {
   const TriangleMesh w = weld_pieces({a, b});
   EXPECT_EQ(w.vertices.size(), 4u);
   EXPECT_EQ(w.triangles.size(), 2u);
+}
+
+// The welder fed one array at a time (as rank 0 receives them), the pieces' attributes and
+// triangles in reverse order, gives weld_pieces()'s mesh bit for bit; a seam vertex keeps the
+// first piece's attribute values; misuse and mismatched pieces are refused.
+TEST(Distributed, WelderFedPieceByPieceMatchesTheWeld) {
+  const ParticleSet ps = read_particles(test::data_file("dam_break_frame_9_6859_particles.bgeo"));
+  Params given;
+  given.transfer = {"velocity"};
+  const TriangleMesh whole = reconstruct(ps, given).mesh;
+  ASSERT_FALSE(whole.attributes.empty());
+  const Params p = resolve_params(ps, resolve_frame_estimates(ps, given));
+  const Decomposition d = decompose(ps, p, 3);
+  std::vector<TriangleMesh> pieces;
+  for (int r = 0; r < 3; ++r) pieces.push_back(owned_piece(whole, d, r));
+  const TriangleMesh expected = weld_pieces(pieces);
+
+  PieceWelder welder(pieces.size());
+  std::size_t triangles = 0;
+  for (std::size_t r = pieces.size(); r-- > 0;) {
+    welder.add_vertices(r, pieces[r].vertices);
+    triangles += pieces[r].triangles.size();
+  }
+  EXPECT_THROW(welder.add_triangles(0, pieces[0].triangles), std::logic_error);  // before weld_vertices
+  welder.weld_vertices();
+  welder.reserve_triangles(triangles);
+  for (std::size_t r = pieces.size(); r-- > 0;) {
+    EXPECT_THROW(welder.add_triangles(r, pieces[r].triangles), std::logic_error);  // attributes first
+    welder.add_attributes(r, pieces[r].attributes);
+    welder.add_triangles(r, pieces[r].triangles);
+  }
+  const TriangleMesh fed = welder.finish(true);
+  EXPECT_TRUE(same_bits(fed.vertices, expected.vertices));
+  EXPECT_TRUE(fed.triangles == expected.triangles);
+  EXPECT_TRUE(same_bits(fed.normals, expected.normals));
+  ASSERT_EQ(fed.attributes.size(), expected.attributes.size());
+  for (std::size_t a = 0; a < fed.attributes.size(); ++a)
+    EXPECT_TRUE(same_bits(fed.attributes[a].values, expected.attributes[a].values)) << fed.attributes[a].name;
+
+  // A piece without the others' attribute, or with too few values, is refused.
+  PieceWelder mismatched(2);
+  mismatched.add_vertices(0, pieces[0].vertices);
+  mismatched.add_vertices(1, pieces[1].vertices);
+  mismatched.weld_vertices();
+  mismatched.add_attributes(0, pieces[0].attributes);
+  EXPECT_THROW(mismatched.add_attributes(1, {}), InvalidParameter);
+  PieceWelder short_values(1);
+  short_values.add_vertices(0, pieces[0].vertices);
+  short_values.weld_vertices();
+  std::vector<Attribute> truncated = pieces[0].attributes;
+  truncated[0].values.pop_back();
+  EXPECT_THROW(short_values.add_attributes(0, truncated), InvalidParameter);
+}
+
+/// K threads standing for K ranks, each holding one part of a frame, their reductions meeting at
+/// a barrier: the MPI collectives of the tool, in one process.
+class ThreadRanks {
+ public:
+  explicit ThreadRanks(int k) : k_(k), barrier_(k), floats_(std::size_t(k)), counts_(std::size_t(k)) {}
+  Reduce reduce(int rank) {
+    Reduce r;
+    r.min = [this, rank](std::vector<float>& v) { combine(floats_, v, rank, [](float a, float b) { return std::min(a, b); }); };
+    r.sum = [this, rank](std::vector<uint64_t>& v) { combine(counts_, v, rank, [](uint64_t a, uint64_t b) { return a + b; }); };
+    return r;
+  }
+  template <class F>
+  void run(F f) {
+    std::vector<std::thread> threads;
+    for (int r = 0; r < k_; ++r) threads.emplace_back(f, r);
+    for (std::thread& t : threads) t.join();
+  }
+
+ private:
+  template <class T, class Op>
+  void combine(std::vector<std::vector<T>*>& slots, std::vector<T>& v, int rank, Op op) {
+    slots[std::size_t(rank)] = &v;
+    barrier_.arrive_and_wait();
+    std::vector<T> result = *slots[0];
+    for (std::size_t r = 1; r < slots.size(); ++r)
+      for (std::size_t i = 0; i < result.size(); ++i) result[i] = op(result[i], (*slots[r])[i]);
+    barrier_.arrive_and_wait();  // every rank has read every part before any overwrites its own
+    v = std::move(result);
+  }
+  int k_;
+  std::barrier<> barrier_;
+  std::vector<std::vector<float>*> floats_;
+  std::vector<std::vector<uint64_t>*> counts_;
+};
+
+ParticleSet range_of(const ParticleSet& ps, std::size_t first, std::size_t end) {
+  ParticleSet out;
+  out.positions.assign(ps.positions.begin() + std::ptrdiff_t(first), ps.positions.begin() + std::ptrdiff_t(end));
+  for (const Attribute& a : ps.attributes) {
+    const std::size_t k = std::size_t(a.components);
+    out.attributes.push_back({a.name, a.components, a.integer,
+                              {a.values.begin() + std::ptrdiff_t(first * k), a.values.begin() + std::ptrdiff_t(end * k)}});
+  }
+  return out;
+}
+
+// The frame-wide estimates and the cuts made from K ranks' parts of the frame (consecutive ranges,
+// as each rank reads its byte range) are bit for bit those made from the whole frame.
+TEST(Distributed, EstimatesAndCutsFromPartsAreTheWholeFrames) {
+  struct Case {
+    std::string name;
+    ParticleSet ps;
+    Params given;
+  };
+  std::vector<Case> cases;
+  cases.push_back({"dam break 9, sph, velocity-weighted", read_particles(test::data_file("ply/dam_break_frame_9_6859_particles.ply")), {}});
+  cases.back().given.field = FieldMethod::sph;
+  cases.back().given.velocity_weighted = true;
+  cases.push_back({"dam break 23", read_particles(test::data_file("ply/dam_break_frame_23_24389_particles.ply")), {}});
+  cases.push_back({"splash 60k", test::wide_splash(60000, 0.01f), {}});
+  for (const Case& c : cases) {
+    const Params whole = resolve_frame_estimates(c.ps, c.given);
+    ASSERT_GT(whole.spacing, 0) << c.name;
+    const Decomposition cut = decompose(c.ps, resolve_params(c.ps, whole), 4);
+    for (int k : {2, 3, 4}) {
+      ThreadRanks ranks(k);
+      std::vector<Params> estimates(static_cast<std::size_t>(k));
+      std::vector<Decomposition> cuts(static_cast<std::size_t>(k));
+      const std::size_t n = c.ps.size();
+      ranks.run([&](int r) {
+        const std::size_t first = n * std::size_t(r) / std::size_t(k), end = n * std::size_t(r + 1) / std::size_t(k);
+        const ParticleSet part = range_of(c.ps, first, end);
+        const Reduce reduce = ranks.reduce(r);
+        estimates[std::size_t(r)] = resolve_frame_estimates_parts(part, first, n, c.given, reduce);
+        cuts[std::size_t(r)] = decompose_parts(part, n, resolve_params(c.ps, whole), 4, reduce);
+      });
+      for (int r = 0; r < k; ++r) {
+        const Params& e = estimates[std::size_t(r)];
+        EXPECT_EQ(e.spacing, whole.spacing) << c.name << " K=" << k << " rank " << r;
+        EXPECT_EQ(e.rest_density, whole.rest_density) << c.name << " K=" << k;
+        EXPECT_EQ(e.velocity_reference, whole.velocity_reference) << c.name << " K=" << k;
+        EXPECT_EQ(cuts[std::size_t(r)].axis, cut.axis) << c.name << " K=" << k;
+        EXPECT_EQ(cuts[std::size_t(r)].cuts, cut.cuts) << c.name << " K=" << k;
+        EXPECT_EQ(cuts[std::size_t(r)].halo, cut.halo) << c.name << " K=" << k;
+      }
+    }
+    if (c.given.field == FieldMethod::sph) {
+      EXPECT_GT(whole.rest_density, 0) << c.name;
+      EXPECT_GT(whole.velocity_reference, 0) << c.name;
+    }
+  }
+}
+
+// The radix selection over parts against nth_element on the whole: negatives, zeros of both signs,
+// ties, infinities.
+TEST(Distributed, SelectionOverPartsIsNthElement) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-5, 5);
+  std::vector<float> all;
+  for (int i = 0; i < 5000; ++i) all.push_back(i % 7 == 0 ? float(i % 3) : u(rng));
+  all.insert(all.end(), {-0.0f, 0.0f, INFINITY, -INFINITY, 1e-40f, -1e-40f});
+  std::vector<uint64_t> ks{0, 1, 17, all.size() / 2, all.size() - 2, all.size() - 1};
+  for (int k : {1, 3}) {
+    ThreadRanks ranks(k);
+    std::vector<std::vector<float>> got(static_cast<std::size_t>(k));
+    ranks.run([&](int r) {
+      const std::vector<float> part(all.begin() + std::ptrdiff_t(all.size() * std::size_t(r) / std::size_t(k)),
+                                    all.begin() + std::ptrdiff_t(all.size() * std::size_t(r + 1) / std::size_t(k)));
+      got[std::size_t(r)] = select_parts(part, ks, ranks.reduce(r));
+    });
+    for (std::size_t i = 0; i < ks.size(); ++i) {
+      std::vector<float> sorted = all;
+      std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(ks[i]), sorted.end());
+      for (int r = 0; r < k; ++r) EXPECT_EQ(got[std::size_t(r)][i], sorted[ks[i]]) << "k-th " << ks[i] << " over " << k;
+    }
+  }
 }
 
 }  // namespace

@@ -17,6 +17,7 @@
 #include "meniscus/io.hpp"
 #include "support/io_helpers.hpp"
 #include "support/test_support.hpp"
+#include "io/ply.hpp"
 
 namespace meniscus {
 namespace {
@@ -107,6 +108,102 @@ TEST(PlyRoundTrip, MeshComesBackBitExact) {
   for (std::size_t i = 0; i < mesh.normals.size(); ++i) EXPECT_EQ(back.normals[i], mesh.normals[i]);
   EXPECT_EQ(back.triangles, mesh.triangles);
   expect_same_attributes(mesh.attributes, back.attributes);
+}
+
+// The PLY written in parts (an MPI run's streamed gather) is the whole mesh's file byte for byte;
+// a writer dropped before commit leaves no file; parts out of order or short counts are refused.
+TEST(PlyRoundTrip, WrittenInPartsIsTheSameFile) {
+  TempDir dir;
+  const TriangleMesh mesh = sample_mesh();
+  ASSERT_GE(mesh.vertices.size(), 3u);
+  write_mesh(dir.file("whole.ply"), mesh);
+  {
+    io::PlyMeshWriter w(dir.file("parts.ply"), mesh.vertices.size(), mesh.triangles.size(), mesh);
+    for (std::size_t first = 0; first < mesh.vertices.size(); first += 2) {
+      TriangleMesh part;
+      const std::size_t n = std::min<std::size_t>(2, mesh.vertices.size() - first);
+      part.vertices.assign(mesh.vertices.begin() + std::ptrdiff_t(first), mesh.vertices.begin() + std::ptrdiff_t(first + n));
+      part.normals.assign(mesh.normals.begin() + std::ptrdiff_t(first), mesh.normals.begin() + std::ptrdiff_t(first + n));
+      for (const Attribute& a : mesh.attributes) {
+        const std::size_t k = std::size_t(a.components);
+        part.attributes.push_back({a.name, a.components, a.integer,
+                                   {a.values.begin() + std::ptrdiff_t(first * k), a.values.begin() + std::ptrdiff_t((first + n) * k)}});
+      }
+      if (first == 0) {
+        EXPECT_THROW(w.add_triangles(mesh.triangles.data(), 1), InvalidParameter) << "before the vertices";
+      }
+      w.add_vertices(part);
+    }
+    for (const Triangle& t : mesh.triangles) w.add_triangles(&t, 1);
+    w.commit();
+  }
+  const auto bytes = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  EXPECT_EQ(bytes(dir.file("parts.ply")), bytes(dir.file("whole.ply")));
+  {
+    io::PlyMeshWriter w(dir.file("short.ply"), mesh.vertices.size(), mesh.triangles.size(), mesh);
+    w.add_vertices(mesh);
+    EXPECT_THROW(w.commit(), InvalidParameter) << "the triangles are missing";
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.file("short.ply")));
+  std::size_t files = 0;
+  for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir.path)) ++files;
+  EXPECT_EQ(files, 2u) << "whole.ply and parts.ply, no temporary left behind";
+}
+
+// A binary PLY of particles read in parts (each MPI rank its byte range) gives what the whole
+// read gives, part by part; files that cannot be read in parts say so with 0 records.
+TEST(ParticleRanges, PartsOfABinaryPlyAndARawXyzAreTheWholeRead) {
+  const std::string ply = test::data_file("ply/dam_break_frame_9_6859_particles.ply");
+  const ParticleSet whole = read_particles(ply);
+  ASSERT_EQ(particle_records(ply), whole.size());
+  std::size_t at = 0;
+  for (std::size_t count : {std::size_t(1000), std::size_t(0), std::size_t(3000), whole.size() - 4000}) {
+    const ParticleSet part = read_particle_range(ply, at, count);
+    ASSERT_EQ(part.size(), count);
+    for (std::size_t i = 0; i < count; ++i) ASSERT_EQ(part.positions[i], whole.positions[at + i]) << at + i;
+    if (count > 0) {
+      ASSERT_EQ(part.attributes.size(), whole.attributes.size());
+      for (std::size_t a = 0; a < whole.attributes.size(); ++a) {
+        const std::size_t k = std::size_t(whole.attributes[a].components);
+        EXPECT_EQ(part.attributes[a].name, whole.attributes[a].name);
+        EXPECT_TRUE(std::equal(part.attributes[a].values.begin(), part.attributes[a].values.end(),
+                               whole.attributes[a].values.begin() + std::ptrdiff_t(at * k)));
+      }
+    }
+    at += count;
+  }
+  EXPECT_THROW(read_particle_range(ply, 6000, 1000), InvalidParameter);
+  // Compressed, text, other formats: whole reads only.
+  EXPECT_EQ(particle_records(test::data_file("dam_break_frame_9_6859_particles.bgeo")), 0u);
+  EXPECT_EQ(particle_records(test::data_file("sphysics_dam_break_IPART_29814_particles.txt.gz")), 0u);
+
+  // Raw .xyz, with a NaN at particle 5: named by its index in the file, or dropped and counted.
+  TempDir dir;
+  const std::string xyz = dir.file("p.xyz");
+  {
+    std::ofstream out(xyz, std::ios::binary);
+    for (int i = 0; i < 10; ++i) {
+      const float v[3] = {float(i), i == 5 ? NAN : 0.5f * float(i), 1.0f};
+      out.write(reinterpret_cast<const char*>(v), sizeof v);
+    }
+  }
+  EXPECT_EQ(particle_records(xyz), 10u);
+  EXPECT_EQ(read_particle_range(xyz, 6, 4).positions[0], (Vec3f{6.0f, 3.0f, 1.0f}));
+  try {
+    read_particle_range(xyz, 3, 5);
+    ADD_FAILURE() << "a NaN coordinate was accepted";
+  } catch (const FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find("particle 5"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("p.xyz"), std::string::npos) << e.what();
+  }
+  ReadOptions drop;
+  drop.drop_invalid = true;
+  ReadReport report;
+  EXPECT_EQ(read_particle_range(xyz, 3, 5, drop, &report).size(), 4u);
+  EXPECT_EQ(report.dropped_invalid, 1u);
 }
 
 TEST(PlyRoundTrip, ParticlesReadFromWrittenMeshKeepAttributes) {

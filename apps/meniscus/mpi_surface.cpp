@@ -358,7 +358,10 @@ std::optional<std::string> attempt(F&& f) {
 /// What each rank reports to rank 0 for the stats.
 struct RankReport {
   double particles = 0, owned_vertices = 0, owned_triangles = 0, surface_seconds = 0, peak_bytes = 0;
+  double removed_voids = 0, removed_blobs = 0, dropped_triangles = 0;  // in its slab with the halo
 };
+constexpr int kReportFields = 8;
+static_assert(sizeof(RankReport) == kReportFields * sizeof(double));
 
 }  // namespace
 
@@ -479,6 +482,8 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
   report.surface_seconds = seconds_since(t2);
   report.owned_vertices = double(piece.vertices.size());
   report.owned_triangles = double(piece.triangles.size());
+  report.removed_voids = double(result.stats.removed_voids), report.removed_blobs = double(result.stats.removed_blobs);
+  report.dropped_triangles = double(result.stats.dropped_triangles);
   if (!all_ok(error, rank)) return 1;
 
   // --pieces: every rank writes its own; rank 0 the index. Otherwise rank 0 welds the pieces as
@@ -552,7 +557,7 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
   stages.emplace_back(job.pieces ? "write_pieces" : streamed ? "gather_write" : "gather_weld", seconds_since(t3));
   report.peak_bytes = double(peak_rss_bytes());
   std::vector<RankReport> reports(static_cast<std::size_t>(ranks));
-  MPI_Gather(&report, 5, MPI_DOUBLE, reports.data(), 5, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+  MPI_Gather(&report, kReportFields, MPI_DOUBLE, reports.data(), kReportFields, MPI_DOUBLE, 0, MPI_COMM_WORLD);
   double slowest = 0;
   for (const RankReport& r : reports) slowest = std::max(slowest, r.surface_seconds);
   stages.insert(stages.end() - 1, {"surface", slowest});
@@ -609,6 +614,9 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
         summary.stats.stages.clear();
         for (const auto& [name, s] : stages) summary.stats.stages.push_back({name, s});
         nlohmann::ordered_json j = nlohmann::ordered_json::parse(stats_to_json(summary));
+        // What each rank removed is counted in its slab with the halo, where the halo's components
+        // are counted by two ranks: per rank only (the mesh does not depend on K; these counts do).
+        for (const char* key : {"removed_voids", "removed_blobs", "dropped_triangles"}) j[key] = nullptr;
         j["ranks"] = ranks;
         j["decomposition"] = {{"axis", std::string(1, "xyz"[d.axis])}, {"cuts", d.cuts}, {"halo", d.halo},
                               {"halo_spacings", d.halo / p.spacing}};
@@ -617,7 +625,8 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
           const RankReport& q = reports[std::size_t(r)];
           per_rank.push_back({{"rank", r}, {"particles_with_halo", q.particles}, {"owned_vertices", q.owned_vertices},
                               {"owned_triangles", q.owned_triangles}, {"surface_seconds", q.surface_seconds},
-                              {"peak_memory_bytes", q.peak_bytes}});
+                              {"peak_memory_bytes", q.peak_bytes}, {"removed_voids", q.removed_voids},
+                              {"removed_blobs", q.removed_blobs}, {"dropped_triangles", q.dropped_triangles}});
         }
         j["per_rank"] = per_rank;
         const std::string text = j.dump(2) + "\n";

@@ -57,6 +57,7 @@ j = json.load(open('$name.k$k.json'))
 assert j['ranks'] == $k and len(j['per_rank']) == $k, (j['ranks'], len(j['per_rank']))
 assert sum(r['owned_triangles'] for r in j['per_rank']) == j['triangles'], 'a triangle owned twice or never'
 assert all(r['peak_memory_bytes'] > 0 and r['surface_seconds'] > 0 for r in j['per_rank'] if r['particles_with_halo'] > 0)
+assert j['removed_voids'] is None and all(r['removed_voids'] >= 0 and r['removed_blobs'] >= 0 for r in j['per_rank'])
 " || fail "$name: the stats of K=$k"
   done
   echo "$name: K=1,2,4 $(cat "$name.k4.same")"

@@ -66,6 +66,29 @@ std::string as_string(std::string_view key, const json& value) {
 }
 
 /// A list of names: a JSON array of strings, or one comma-separated string ("velocity,color").
+/// An array of numbers, or a string of comma-separated numbers ("0,0,0,1,1,1").
+std::vector<double> as_numbers(std::string_view key, const json& value) {
+  std::vector<double> numbers;
+  if (value.is_string()) {
+    std::stringstream in(value.get<std::string>());
+    for (std::string item; std::getline(in, item, ',');) {
+      std::size_t used = 0;
+      double x = 0;
+      try {
+        x = std::stod(item, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used == 0 || item.find_first_not_of(" \t", used) != std::string::npos) wrong_type(key, value, "numbers separated by commas");
+      numbers.push_back(x);
+    }
+    return numbers;
+  }
+  if (!value.is_array()) wrong_type(key, value, "an array of numbers");
+  for (const json& item : value) numbers.push_back(as_number(key, item));
+  return numbers;
+}
+
 std::vector<std::string> as_names(std::string_view key, const json& value) {
   std::vector<std::string> names;
   if (value.is_string()) {
@@ -119,6 +142,8 @@ const std::vector<Key>& keys() {
       Key{"solver", [](Params& p, std::string_view k, const json& v) { p.solver = parse_solver(as_string(k, v)); }},
       MENISCUS_INT_KEY(rebuild_b),
       MENISCUS_NUMBER_KEY(erode),
+      MENISCUS_INT_KEY(min_particles),
+      Key{"particle_box", [](Params& p, std::string_view k, const json& v) { p.particle_box = as_numbers(k, v); }},
       Key{"transfer", [](Params& p, std::string_view k, const json& v) { p.transfer = as_names(k, v); }},
       MENISCUS_NUMBER_KEY(transfer_radius),
       MENISCUS_INT_KEY(threads),

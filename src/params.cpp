@@ -96,6 +96,17 @@ void Params::validate() const {
     require(voxel_size <= 2 * r_outer, "voxel_size", voxel_size,
             fmt::format("must be at most 2·r_outer ({:g}); the surface would not be resolved", 2 * r_outer).c_str());
   require(steps_a >= 0, "steps_a", steps_a, "must be ≥ 0");
+  if (!particle_box.empty()) {
+    if (particle_box.size() != 6)
+      throw InvalidParameter(fmt::format("particle_box: {} numbers given, expected 6 (xmin, ymin, zmin, xmax, ymax, zmax)",
+                                         particle_box.size()));
+    for (int c = 0; c < 3; ++c)
+      if (!std::isfinite(particle_box[std::size_t(c)]) || !std::isfinite(particle_box[std::size_t(c) + 3]) ||
+          !(particle_box[std::size_t(c)] < particle_box[std::size_t(c) + 3]))
+        throw InvalidParameter(fmt::format("particle_box: {0}min must be below {0}max, both finite; found {1} and {2}",
+                                           "xyz"[c], particle_box[std::size_t(c)], particle_box[std::size_t(c) + 3]));
+  }
+  require(min_particles >= 0, "min_particles", min_particles, "must be ≥ 0 (0 keeps every component)");
   require(steps_b >= 0, "steps_b", steps_b, "must be ≥ 0");
   require(steps_free >= 0, "steps_free", steps_free, "must be ≥ 0");
   require(std::isfinite(relax) && relax >= 0 && relax <= 1, "relax", relax,

@@ -377,7 +377,12 @@ double local_reach(const Params& p) {
 }
 
 Params resolve_frame_estimates(const ParticleSet& particles, const Params& params) {
-  return resolve_frame_estimates_parts(particles, 0, particles.size(), params, local_reduce());
+  if (params.particle_box.empty())
+    return resolve_frame_estimates_parts(particles, 0, particles.size(), params, local_reduce());
+  params.validate();
+  ParticleSet boxed = particles;  // the estimates of the particles reconstruct() surfaces
+  keep_particles_in_box(boxed, params.particle_box);
+  return resolve_frame_estimates_parts(boxed, 0, boxed.size(), params, local_reduce());
 }
 
 Params resolve_frame_estimates_parts(const ParticleSet& part, std::size_t first, std::size_t total,
@@ -627,9 +632,41 @@ class CpuPipeline {
 
 }  // namespace
 
-Result reconstruct(const ParticleSet& particles, const Params& params, const ProgressFn& progress) {
+std::size_t keep_particles_in_box(ParticleSet& particles, const std::vector<double>& box) {
+  if (box.empty()) return 0;
+  if (box.size() != 6) throw InvalidParameter(fmt::format("particle_box: {} numbers given, expected 6", box.size()));
+  const std::size_t n = particles.size();
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3f x = particles.positions[i];
+    if (!(x.x >= box[0] && x.y >= box[1] && x.z >= box[2] && x.x <= box[3] && x.y <= box[4] && x.z <= box[5])) continue;
+    particles.positions[kept] = x;
+    for (Attribute& a : particles.attributes) {
+      const std::size_t c = std::size_t(a.components);
+      std::copy_n(a.values.begin() + std::ptrdiff_t(i * c), c, a.values.begin() + std::ptrdiff_t(kept * c));
+    }
+    ++kept;
+  }
+  particles.positions.resize(kept);
+  for (Attribute& a : particles.attributes) a.values.resize(kept * std::size_t(a.components));
+  return n - kept;
+}
+
+Result reconstruct(const ParticleSet& all_particles, const Params& params, const ProgressFn& progress) {
+  // --particle-box: the particles outside are ignored before anything else.
+  ParticleSet boxed;
+  std::size_t outside = 0;
+  if (!params.particle_box.empty()) {
+    params.validate();
+    boxed = all_particles;
+    outside = keep_particles_in_box(boxed, params.particle_box);
+    if (boxed.size() == 0 && all_particles.size() > 0)
+      throw InvalidParameter(fmt::format("particle_box: all {} particles are outside the box", all_particles.size()));
+  }
+  const ParticleSet& particles = params.particle_box.empty() ? all_particles : boxed;
   Result result;
   Stats& stats = result.stats;
+  stats.particles_outside_box = outside;
   const Attribute* velocity = check_inputs(particles, params);
   const Grant cpus = params.threads > 0 ? Grant{double(params.threads), "--threads"} : granted_threads();
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(cpus.amount));
@@ -659,6 +696,11 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
     stats.backend = "cpu";
     CpuPipeline(in, result, progress).run();
   }
+  if (p.min_particles > 0)  // on the finished mesh, whichever backend made it
+    stats.removed_strays = StageTimer(stats, progress).run("strays", [&] {
+      return remove_components_enclosing_few(result.mesh, particles.positions, float(std::max(p.r_outer, 2 * p.spacing)),
+                                             std::size_t(p.min_particles));
+    });
   stats.vertices = result.mesh.vertices.size();
   stats.triangles = result.mesh.triangles.size();
   stats.peak_memory_bytes = peak_rss_bytes();
@@ -677,6 +719,8 @@ std::string stats_to_json(const Result& result) {
   j["dropped_triangles"] = s.dropped_triangles;
   j["removed_voids"] = s.removed_voids;
   j["removed_blobs"] = s.removed_blobs;
+  j["removed_strays"] = s.removed_strays;
+  j["particles_outside_box"] = s.particles_outside_box;
   j["flipped_triangles"] = s.flipped_triangles;
   j["ranks"] = 1;  // one process (an MPI run over K ranks says K: docs/cluster.md)
   j["threads"] = s.threads;
@@ -736,6 +780,8 @@ std::string stats_to_json(const Result& result) {
   q["velocity_reference"] = p.velocity_reference;
   q["velocity_min_weight"] = p.velocity_min_weight;
   q["erode"] = p.erode;
+  q["min_particles"] = p.min_particles;
+  if (!p.particle_box.empty()) q["particle_box"] = p.particle_box;
   q["transfer"] = p.transfer;
   q["transfer_radius"] = p.transfer_radius;
   q["threads"] = p.threads;

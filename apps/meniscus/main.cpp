@@ -120,6 +120,14 @@ void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
   cmd.add_option("--velocity-min-weight", p.velocity_min_weight, "smallest smoothing factor of fast fluid, in (0, 1]")
       ->capture_default_str();
   cmd.add_option("--erode", p.erode, "move the surface inwards by this distance")->check(CLI::NonNegativeNumber);
+  cmd.add_option("--particle-box", p.particle_box,
+                 "xmin,ymin,zmin,xmax,ymax,zmax: surface only the particles inside this box (default: all)")
+      ->delimiter(',')
+      ->expected(6);
+  cmd.add_option("--min-particles", p.min_particles,
+                 "drop surface components enclosing fewer particles than this (strays, particles stuck in a wall; "
+                 "default 0: keep every droplet)")
+      ->check(CLI::NonNegativeNumber);
   cmd.add_option("--transfer", p.transfer, "particle attributes to carry onto the vertices (comma separated)")
       ->delimiter(',');
   cmd.add_option("--transfer-radius", p.transfer_radius, "radius of the attribute transfer kernel (default 2 d)")
@@ -178,6 +186,8 @@ void apply_artist_controls(const CLI::App& cmd, SurfaceArgs& a) {
   take("--rebuild-b", &Params::rebuild_b);
   take("--extract", &Params::extract);
   take("--erode", &Params::erode);
+  take("--min-particles", &Params::min_particles);
+  take("--particle-box", &Params::particle_box);
   take("--transfer", &Params::transfer);
   take("--transfer-radius", &Params::transfer_radius);
   take("--threads", &Params::threads);
@@ -218,8 +228,12 @@ std::string read_text_file(const std::string& path) {
 }
 
 void check_output_format(const std::string& output) {
+  // Any format may be gzip-compressed: "mesh.bgeo.gz".
+  const std::string name = output.size() > 3 && output.compare(output.size() - 3, 3, ".gz") == 0
+                               ? output.substr(0, output.size() - 3)
+                               : output;
   for (const std::string& ext : mesh_formats())
-    if (output.size() >= ext.size() && output.compare(output.size() - ext.size(), ext.size(), ext) == 0) return;
+    if (name.size() >= ext.size() && name.compare(name.size() - ext.size(), ext.size(), ext) == 0) return;
   throw InvalidParameter(
       fmt::format("output '{}': unknown mesh format (supported: {})", output, fmt::join(mesh_formats(), ", ")));
 }
@@ -942,7 +956,7 @@ int run_info() {
   fmt::print("mpi: {}\n", cli::mpi_built() ? "yes (mpirun -n K meniscus surface spreads one frame over K ranks)"
                                             : "no (built without MPI)");
   fmt::print("particle formats: {}\n", fmt::join(particle_formats(), " "));
-  fmt::print("mesh formats: {}\n", fmt::join(mesh_formats(), " "));
+  fmt::print("mesh formats: {} (each also gzip-compressed: .bgeo.gz, .ply.gz …)\n", fmt::join(mesh_formats(), " "));
   fmt::print("extractors: tiles cubes tetrahedra\n");
   return 0;
 }

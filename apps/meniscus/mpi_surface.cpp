@@ -7,6 +7,7 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <climits>
 #include <cstdint>
@@ -400,19 +401,25 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
   if (in_parts) {
     const uint64_t begin = records * uint64_t(rank) / uint64_t(ranks), end = records * uint64_t(rank + 1) / uint64_t(ranks);
     ReadReport report;
-    error = attempt([&] { all = read_particle_range(job.input, begin, end - begin, job.read, &report); });
+    error = attempt([&] {
+      all = read_particle_range(job.input, begin, end - begin, job.read, &report);
+      keep_particles_in_box(all, job.params.particle_box);
+    });
     if (!all_ok(error, rank)) return 1;
     // Where this part starts once particles with NaN/Inf coordinates are dropped.
     uint64_t kept = all.size(), before = 0, sum = 0;
     MPI_Exscan(&kept, &before, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
     MPI_Allreduce(&kept, &sum, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
     first = rank == 0 ? 0 : std::size_t(before), total_particles = std::size_t(sum);
-    if (total_particles == 0) error = fmt::format("{}: contains no particles once those with NaN/Inf coordinates are dropped", job.input);
+    if (total_particles == 0)
+      error = fmt::format("{}: no particles once those with NaN/Inf coordinates or outside --particle-box are dropped", job.input);
     if (!all_ok(rank == 0 ? error : std::nullopt, rank)) return 1;
     error = attempt([&] { given = resolve_frame_estimates_parts(all, first, total_particles, job.params, reduce); });
   } else if (rank == 0) {
     error = attempt([&] {
       all = read_particles(job.input, job.read);
+      keep_particles_in_box(all, job.params.particle_box);
+      if (all.size() == 0) throw InvalidParameter("particle_box: all the frame's particles are outside the box");
       given = resolve_frame_estimates(all, job.params);
       total_particles = all.size();
     });
@@ -465,7 +472,9 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
   const auto t2 = std::chrono::steady_clock::now();
   // A PLY output is written as the pieces come (each vertex once; rank 0 holds one piece at a
   // time); other formats are welded whole on rank 0 first.
-  const bool streamed = !job.pieces && io::format_extension(job.output) == ".ply";
+  std::string extension = std::filesystem::path(job.output).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  const bool streamed = !job.pieces && extension == ".ply";
   Seams seams;
   TriangleMesh piece;
   Result result;

@@ -422,6 +422,17 @@ class MeniscusSettings(bpy.types.PropertyGroup):
     erode: bpy.props.FloatProperty(
         name="Erode", min=0.0, default=0.0, unit="LENGTH", precision=4,
         description="Move the finished surface inwards by this distance")
+    use_particle_box: bpy.props.BoolProperty(
+        name="Particle Box", default=False,
+        description="Surface only the particles inside a box (drop those stuck in the tank's walls)")
+    particle_box_min: bpy.props.FloatVectorProperty(
+        name="Box Min", size=3, default=(-1.0, -1.0, -1.0), unit="LENGTH", description="The box's lowest corner")
+    particle_box_max: bpy.props.FloatVectorProperty(
+        name="Box Max", size=3, default=(1.0, 1.0, 1.0), unit="LENGTH", description="The box's highest corner")
+    min_particles: bpy.props.IntProperty(
+        name="Min Particles", min=0, default=0,
+        description="Drop surface pieces enclosing fewer particles than this (strays, particles stuck in a wall); "
+                    "0 keeps every droplet")
     spacing: bpy.props.FloatProperty(
         name="Spacing", min=0.0, default=0.0, unit="LENGTH", precision=4,
         description="Particle separation; 0 estimates it from the particles")
@@ -464,6 +475,10 @@ def params_from_settings(settings):
         params.update(smoothness=settings.smoothness, detail=settings.detail)
     if settings.erode > 0:
         params["erode"] = settings.erode
+    if settings.min_particles > 0:
+        params["min_particles"] = settings.min_particles
+    if settings.use_particle_box:
+        params["particle_box"] = [*settings.particle_box_min, *settings.particle_box_max]
     if settings.spacing > 0:
         params["spacing"] = settings.spacing
     if settings.field != "distance":
@@ -574,6 +589,11 @@ class MENISCUS_PT_panel(bpy.types.Panel):
         sliders.prop(settings, "smoothness")
         sliders.prop(settings, "detail")
         col.prop(settings, "erode")
+        col.prop(settings, "min_particles")
+        col.prop(settings, "use_particle_box")
+        if settings.use_particle_box:
+            col.prop(settings, "particle_box_min")
+            col.prop(settings, "particle_box_max")
         col.prop(settings, "spacing")
         col = layout.column(align=True)
         col.prop(settings, "field")

@@ -118,6 +118,10 @@ def surface_point_mesh():
     settings.smoothness = 0.4
     settings.detail = 1.25
     settings.erode = 0.002
+    settings.min_particles = 2
+    settings.use_particle_box = True
+    settings.particle_box_min = (-100.0, -100.0, -100.0)  # every particle of the frame inside
+    settings.particle_box_max = (100.0, 100.0, 100.0)
     settings.transfer_velocity = True
     settings.transfer_color = True
     settings.result_name = ""
@@ -126,7 +130,8 @@ def surface_point_mesh():
     assert result.name == "dam break particles surface"
     counts = assert_watertight(result)
     params = addon.params_from_settings(settings)
-    assert sorted(params) == ["detail", "erode", "smoothness", "transfer"]
+    assert sorted(params) == ["detail", "erode", "min_particles", "particle_box", "smoothness", "transfer"]
+    assert params["particle_box"] == [-100.0, -100.0, -100.0, 100.0, 100.0, 100.0]
     assert params["transfer"] == ["velocity", "color"]
     expected = reference_counts(positions, {"velocity": attributes["velocity"], "color": rgba[:, :3]}, params)
     assert counts == expected, f"operator gave {counts}, the reference {expected}"

@@ -84,8 +84,16 @@ struct Params {
   double velocity_reference = 0;     ///< v_ref; 0: the 95th percentile of the particle speeds
   double velocity_min_weight = 0.2;  ///< w_min, in (0, 1]
 
+  /// xmin, ymin, zmin, xmax, ymax, zmax: only the particles inside this box (faces included) are
+  /// surfaced, the others ignored before anything else (particles stuck in a tank wall, or a
+  /// region of a large domain); empty: every particle.
+  std::vector<double> particle_box;
+
   // --- post-processing ------------------------------------------------------------------------
   double erode = 0;                    ///< move vertices inwards along the normal by this much
+  /// Drop the surface's closed components that enclose fewer particles than this (lone
+  /// particles, particles stuck in a wall); 0 keeps every droplet.
+  int min_particles = 0;
   std::vector<std::string> transfer;   ///< particle attributes to carry onto the vertices
   double transfer_radius = 0;          ///< 0: 2 d
 

@@ -50,6 +50,8 @@ struct Stats {
   std::size_t removed_voids = 0;       ///< small interior voids removed after extraction
   std::size_t removed_blobs = 0;       ///< kernel fields: blobs enclosing no particle or smaller than an inner shell
   std::size_t flipped_triangles = 0;   ///< triangles whose normal reversed during erosion
+  std::size_t removed_strays = 0;      ///< components enclosing fewer than min_particles particles
+  std::size_t particles_outside_box = 0;  ///< particles ignored by particle_box
   std::size_t peak_memory_bytes = 0;   ///< peak resident set size of the process
   int threads = 0;
   std::string threads_from;            ///< where the thread count came from: --threads, the CPU affinity, Slurm
@@ -110,6 +112,10 @@ Params resolve_frame_estimates(const ParticleSet& particles, const Params& param
 /// leaves holes in the surface. Exact duplicates are ignored. Estimated from a deterministic
 /// sample of at most `max_samples` particles.
 double estimate_spacing(const ParticleSet& particles, std::size_t max_samples = 50000);
+
+/// Keeps the particles inside `box` (xmin, ymin, zmin, xmax, ymax, zmax; faces included) with
+/// their attributes, in order; returns how many were dropped. An empty box keeps all.
+std::size_t keep_particles_in_box(ParticleSet& particles, const std::vector<double>& box);
 
 /// The stats and parameters as a JSON document (the format of `--stats FILE.json`).
 std::string stats_to_json(const Result& result);

@@ -188,6 +188,31 @@ def test_colour_ramp_is_transferred_onto_the_vertices():
     assert np.allclose(transferred[:, 2], 0.25, atol=1e-5)
 
 
+def test_min_particles_drops_the_strays():
+    block = np.stack(np.meshgrid(*(np.arange(6) * 0.1,) * 3, indexing="ij"), -1).reshape(-1, 3)
+    singles = np.array([[2.0 + 0.8 * i, 0.25, 0.25] for i in range(4)])
+    positions = np.concatenate([block, singles]).astype(np.float32)
+    kept = meniscus.reconstruct(positions, spacing=0.1, threads=1)
+    dropped = meniscus.reconstruct(positions, spacing=0.1, min_particles=2, threads=1)
+    assert kept.stats["removed_strays"] == 0 and dropped.stats["removed_strays"] == 4
+    assert len(dropped.triangles) < len(kept.triangles)
+    assert dropped.vertices[:, 0].max() < 1.0  # the singles at x >= 2 are gone, the block stays
+    with pytest.raises(ValueError, match="min_particles"):
+        meniscus.reconstruct(positions, spacing=0.1, min_particles=-1)
+
+
+def test_particle_box_ignores_the_particles_outside():
+    block = np.stack(np.meshgrid(*(np.arange(6) * 0.1,) * 3, indexing="ij"), -1).reshape(-1, 3)
+    wall = np.array([[1.5, 0.25, 0.25], [1.55, 0.3, 0.25]])  # stuck in a wall beyond x = 1
+    positions = np.concatenate([block, wall]).astype(np.float32)
+    inside = meniscus.reconstruct(block.astype(np.float32), spacing=0.1, threads=1)
+    boxed = meniscus.reconstruct(positions, spacing=0.1, particle_box=(-1, -1, -1, 1, 1, 1), threads=1)
+    assert boxed.stats["particles_outside_box"] == 2 and boxed.stats["particles"] == len(block)
+    assert np.array_equal(boxed.vertices, inside.vertices) and np.array_equal(boxed.triangles, inside.triangles)
+    with pytest.raises(ValueError, match="particle_box"):
+        meniscus.reconstruct(positions, spacing=0.1, particle_box=(0, 0, 0, 1, 1))
+
+
 def test_erode_moves_the_surface_inwards():
     positions = lattice_block((6, 6, 6))
     plain = meniscus.reconstruct(positions, spacing=0.1, threads=1)

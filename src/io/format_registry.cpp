@@ -9,7 +9,9 @@
 #include <optional>
 
 #include <fmt/format.h>
+#include <zlib.h>
 
+#include "io/atomic_file.hpp"
 #include "io/bgeo_classic.hpp"
 #include "io/bgeo_json.hpp"
 #include "io/blosc_container.hpp"
@@ -285,10 +287,60 @@ TriangleMesh read_mesh(const std::string& path) {
   return reader->read(source);
 }
 
+namespace {
+
+/// `bytes` as a gzip stream (zlib's deflate with a gzip header), to `path` through AtomicFile.
+void write_gzip(const std::string& path, const io::Bytes& bytes) {
+  z_stream z{};
+  if (deflateInit2(&z, Z_DEFAULT_COMPRESSION, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK)
+    throw IoError(fmt::format("cannot write '{}': zlib could not start", path));
+  io::AtomicFile file(path);
+  std::vector<uint8_t> out(std::size_t(1) << 20);
+  std::size_t at = 0;
+  int status = Z_OK;
+  do {
+    const std::size_t in = std::min<std::size_t>(bytes.size() - at, std::size_t(1) << 30);
+    z.next_in = const_cast<Bytef*>(bytes.data() + at);
+    z.avail_in = uInt(in);
+    const int flush = at + in == bytes.size() ? Z_FINISH : Z_NO_FLUSH;
+    do {
+      z.next_out = out.data();
+      z.avail_out = uInt(out.size());
+      status = deflate(&z, flush);
+      file.write(out.data(), out.size() - z.avail_out);
+    } while (z.avail_out == 0);
+    at += in;
+  } while (status != Z_STREAM_END);
+  deflateEnd(&z);
+  file.commit();
+}
+
+}  // namespace
+
 void write_mesh(const std::string& path, const TriangleMesh& mesh) {
   const std::string ext = std::filesystem::path(path).extension().string();
   std::string lower = ext;
   std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (lower == ".gz") {
+    // Any format, gzip-compressed (Houdini reads .bgeo.gz; our readers inflate by content): the
+    // inner format's file beside the target, compressed into the target, then removed.
+    const std::string inner = io::format_extension(path);
+    for (const io::MeshWriter& writer : io::mesh_writers())
+      if (std::find(writer.extensions.begin(), writer.extensions.end(), inner) != writer.extensions.end()) {
+        const std::string plain = path + ".uncompressed" + inner;
+        writer.write(plain, mesh);
+        try {
+          const io::Bytes bytes = io::read_file_bytes(plain);
+          std::filesystem::remove(plain);
+          write_gzip(path, bytes);
+        } catch (...) {
+          std::error_code ignored;
+          std::filesystem::remove(plain, ignored);
+          throw;
+        }
+        return;
+      }
+  }
   for (const io::MeshWriter& writer : io::mesh_writers())
     if (std::find(writer.extensions.begin(), writer.extensions.end(), lower) != writer.extensions.end())
       return writer.write(path, mesh);

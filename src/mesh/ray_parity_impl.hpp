@@ -53,14 +53,13 @@ MENISCUS_HD inline bool ray_crosses(Vec3f a, Vec3f b, Vec3f c, double px, double
   return x > px;
 }
 
-/// Whether any point of the grid lies inside the closed surface made of the `count` triangles
-/// ids[0, count) of `tris` (3 vertex indices each, into `x`): the blob test of
-/// remove_unsupported_blobs, on both backends. Only the points in the surface's bounding box are
-/// tested, each against every triangle (a blob has a few dozen).
+/// How many points of the grid lie inside the closed surface made of the `count` triangles
+/// ids[0, count) of `tris` (3 vertex indices each, into `x`), counting up to `limit`. Only the
+/// points in the surface's bounding box are tested, each against every triangle.
 template <class Grid>
-MENISCUS_HD bool encloses_a_point(const Grid& g, const uint32_t* tris, const uint32_t* ids, uint32_t count,
-                                  const Vec3f* x) {
-  if (count == 0) return false;
+MENISCUS_HD uint32_t count_enclosed_points(const Grid& g, const uint32_t* tris, const uint32_t* ids, uint32_t count,
+                                           const Vec3f* x, uint32_t limit) {
+  if (count == 0 || limit == 0) return 0;
   Vec3f lo = x[tris[3 * std::size_t(ids[0])]], hi = lo;
   for (uint32_t k = 0; k < count; ++k)
     for (int j = 0; j < 3; ++j) {
@@ -68,7 +67,7 @@ MENISCUS_HD bool encloses_a_point(const Grid& g, const uint32_t* tris, const uin
       lo = min(lo, v), hi = max(hi, v);
     }
   const RayParityFrame frame = ray_parity_frame(lo, hi, count);
-  bool inside = false;
+  uint32_t inside = 0;
   grid_for_each_in_cells_of_box(g, lo, hi, [&](uint32_t i) {
     const Vec3f p = g.point(i);
     if (!(p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z)) return true;
@@ -79,10 +78,18 @@ MENISCUS_HD bool encloses_a_point(const Grid& g, const uint32_t* tris, const uin
       const uint32_t* t = tris + 3 * std::size_t(ids[k]);
       crossings += ray_crosses(x[t[0]], x[t[1]], x[t[2]], px, py, pz);
     }
-    inside = crossings % 2 == 1;
-    return !inside;  // stop at the first point inside
+    inside += crossings % 2 == 1;
+    return inside < limit;  // stop at the limit
   });
   return inside;
+}
+
+/// Whether any point of the grid lies inside the closed surface (count_enclosed_points): the
+/// blob test of remove_unsupported_blobs, on both backends (a blob has a few dozen triangles).
+template <class Grid>
+MENISCUS_HD bool encloses_a_point(const Grid& g, const uint32_t* tris, const uint32_t* ids, uint32_t count,
+                                  const Vec3f* x) {
+  return count_enclosed_points(g, tris, ids, count, x, 1) > 0;
 }
 
 }  // namespace meniscus

@@ -76,6 +76,12 @@ for name, read, spread in [('dam_break_23', 'read_parts', 'exchange'), ('dam_bre
     assert read in stages and spread in stages, (name, list(stages))
 print('fixed-record PLY read in parts by every rank; bgeo read by rank 0')
 " || fail "the read stages"
+# --particle-box: every rank drops the particles outside from its part as it reads.
+"$meniscus" surface "$data/ply/dam_break_frame_23_24389_particles.ply" -o box.single.ply --particle-box=-10,-10,-10,0.3,10,10 -q --backend cpu
+"${mpi[@]}" 2 "$meniscus" surface "$data/ply/dam_break_frame_23_24389_particles.ply" -o box.k2.ply --particle-box=-10,-10,-10,0.3,10,10 -q --backend cpu ||
+  fail "mpirun -n 2 with --particle-box failed"
+same box.single.ply box.k2.ply > box.same || { cat box.same; fail "--particle-box: K=2 differs from one process"; }
+echo "particle box: $(cat box.same)"
 # The transferred velocity through the streamed gather, and a format welded whole on rank 0 (.obj).
 same --attributes dam_break_9_anisotropic_velocity.single.ply dam_break_9_anisotropic_velocity.k4.ply > velocity.same ||
   { cat velocity.same; fail "the velocity of K=4 differs from one process"; }

@@ -154,6 +154,22 @@ TEST(CudaParity, FieldMethodsGiveTheSameMesh) {
   }
 }
 
+// --min-particles runs on the finished mesh of either backend: the same strays go.
+TEST(CudaParity, MinParticlesDropsTheSameStrays) {
+  MENISCUS_REQUIRE_CUDA_DEVICE();
+  const ParticleSet ps = read_particles(test::data_file("ply/dam_break_frame_23_24389_particles.ply"));
+  Params p;
+  p.spacing = estimate_spacing(ps);
+  p.min_particles = 2;
+  p.backend = Backend::cpu;
+  const Result cpu = reconstruct(ps, p);
+  p.backend = Backend::cuda;
+  const Result gpu = reconstruct(ps, p);
+  EXPECT_GT(cpu.stats.removed_strays, 0u);
+  EXPECT_EQ(gpu.stats.removed_strays, cpu.stats.removed_strays);
+  EXPECT_EQ(gpu.mesh.triangles.size(), cpu.mesh.triangles.size());
+}
+
 TEST(CudaParity, ParticleSmoothingAndVelocityWeighting) {
   MENISCUS_REQUIRE_CUDA_DEVICE();
   const ParticleSet ps = read_particles(test::data_file("ply/sphysics_dam_break_IPART_29814_particles.ply"));

@@ -80,7 +80,7 @@ struct Reader {
     const uint64_t n = get<uint64_t>();
     if (n > (bytes.size() - at) / sizeof(T)) throw std::runtime_error(fmt::format("MPI message: an array of {} is cut short", n));
     std::vector<T> v(n);
-    std::memcpy(v.data(), bytes.data() + at, n * sizeof(T));
+    if (n > 0) std::memcpy(v.data(), bytes.data() + at, n * sizeof(T));  // (an empty vector's data() may be null)
     at += n * sizeof(T);
     return v;
   }

@@ -77,6 +77,17 @@ void require(bool ok, const char* name, double value, const char* expectation) {
 void length_param(const char* name, double value) {
   require(std::isfinite(value) && value >= 0, name, value, "must be a finite length ≥ 0 (0 = derive from the spacing)");
 }
+/// A box as xmin, ymin, zmin, xmax, ymax, zmax (or empty: none).
+void check_box(const char* name, const std::vector<double>& box) {
+  if (box.empty()) return;
+  if (box.size() != 6)
+    throw InvalidParameter(
+        fmt::format("{}: {} numbers given, expected 6 (xmin, ymin, zmin, xmax, ymax, zmax)", name, box.size()));
+  for (std::size_t c = 0; c < 3; ++c)
+    if (!std::isfinite(box[c]) || !std::isfinite(box[c + 3]) || !(box[c] < box[c + 3]))
+      throw InvalidParameter(fmt::format("{0}: {1}min must be below {1}max, both finite; found {2} and {3}", name,
+                                         "xyz"[c], box[c], box[c + 3]));
+}
 }  // namespace
 
 void Params::validate() const {
@@ -96,17 +107,13 @@ void Params::validate() const {
     require(voxel_size <= 2 * r_outer, "voxel_size", voxel_size,
             fmt::format("must be at most 2·r_outer ({:g}); the surface would not be resolved", 2 * r_outer).c_str());
   require(steps_a >= 0, "steps_a", steps_a, "must be ≥ 0");
-  if (!particle_box.empty()) {
-    if (particle_box.size() != 6)
-      throw InvalidParameter(fmt::format("particle_box: {} numbers given, expected 6 (xmin, ymin, zmin, xmax, ymax, zmax)",
-                                         particle_box.size()));
-    for (int c = 0; c < 3; ++c)
-      if (!std::isfinite(particle_box[std::size_t(c)]) || !std::isfinite(particle_box[std::size_t(c) + 3]) ||
-          !(particle_box[std::size_t(c)] < particle_box[std::size_t(c) + 3]))
-        throw InvalidParameter(fmt::format("particle_box: {0}min must be below {0}max, both finite; found {1} and {2}",
-                                           "xyz"[c], particle_box[std::size_t(c)], particle_box[std::size_t(c) + 3]));
-  }
+  check_box("particle_box", particle_box);
   require(min_particles >= 0, "min_particles", min_particles, "must be ≥ 0 (0 keeps every component)");
+  check_box("clip_box", clip_box);
+  if (clip_cap && clip_box.empty())
+    throw InvalidParameter("clip_cap: there is no clip_box to cap (give clip_box, or drop clip_cap)");
+  require(std::isfinite(decimate) && decimate >= 0 && decimate <= 1, "decimate", decimate,
+          "must be in [0, 1] spacings (0 = no simplification; 0.02 is typical)");
   require(steps_b >= 0, "steps_b", steps_b, "must be ≥ 0");
   require(steps_free >= 0, "steps_free", steps_free, "must be ≥ 0");
   require(std::isfinite(relax) && relax >= 0 && relax <= 1, "relax", relax,

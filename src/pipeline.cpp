@@ -26,6 +26,8 @@
 #include "field/kernel_impl.hpp"
 #include "grid/hash_grid.hpp"
 #include "memory_scope.hpp"
+#include "mesh/clip.hpp"
+#include "mesh/decimate.hpp"
 #include "mesh/voids.hpp"
 #include "meniscus/backend.hpp"
 #include "meniscus/distributed.hpp"
@@ -652,6 +654,36 @@ std::size_t keep_particles_in_box(ParticleSet& particles, const std::vector<doub
   return n - kept;
 }
 
+namespace {
+
+/// The finished mesh's post-processing, whichever backend made it: the clip (and its cap), then
+/// the simplification.
+void finish_mesh(TriangleMesh& mesh, const Params& p, Stats& stats, const ProgressFn& progress) {
+  if (!p.clip_box.empty()) {
+    const ClipBox box{float(p.clip_box[0]), float(p.clip_box[1]), float(p.clip_box[2]),
+                      float(p.clip_box[3]), float(p.clip_box[4]), float(p.clip_box[5])};
+    const ClipOutcome clip = StageTimer(stats, progress).run("clip", [&] { return clip_to_box(mesh, box, p.clip_cap); });
+    stats.clipped_triangles = clip.removed_triangles;
+    stats.cut_triangles = clip.cut_triangles;
+    stats.cap_triangles = clip.cap_triangles;
+    stats.cap_open_edges = clip.cap_defects;
+    if (clip.cap_defects > 0)
+      stats.warnings.push_back(fmt::format(
+          "clip_cap: {} edges left open where the cut's curves cross on a box face (the surface intersects itself "
+          "there); the mesh is not watertight",
+          clip.cap_defects));
+  }
+  if (p.decimate > 0) {
+    const DecimateOutcome d = StageTimer(stats, progress).run("decimate", [&] { return decimate(mesh, p.decimate * p.spacing); });
+    stats.decimated_triangles = d.triangles_before - d.triangles_after;
+    stats.decimate_error = d.max_error;
+    stats.decimate_kept_whole = d.kept_whole;
+    stats.decimate_rounds = d.rounds;
+  }
+}
+
+}  // namespace
+
 Result reconstruct(const ParticleSet& all_particles, const Params& params, const ProgressFn& progress) {
   // --particle-box: the particles outside are ignored before anything else.
   ParticleSet boxed;
@@ -701,6 +733,7 @@ Result reconstruct(const ParticleSet& all_particles, const Params& params, const
       return remove_components_enclosing_few(result.mesh, particles.positions, float(std::max(p.r_outer, 2 * p.spacing)),
                                              std::size_t(p.min_particles));
     });
+  finish_mesh(result.mesh, p, stats, progress);
   stats.vertices = result.mesh.vertices.size();
   stats.triangles = result.mesh.triangles.size();
   stats.peak_memory_bytes = peak_rss_bytes();
@@ -721,6 +754,14 @@ std::string stats_to_json(const Result& result) {
   j["removed_blobs"] = s.removed_blobs;
   j["removed_strays"] = s.removed_strays;
   j["particles_outside_box"] = s.particles_outside_box;
+  j["clipped_triangles"] = s.clipped_triangles;
+  j["cut_triangles"] = s.cut_triangles;
+  j["cap_triangles"] = s.cap_triangles;
+  j["cap_open_edges"] = s.cap_open_edges;
+  j["decimated_triangles"] = s.decimated_triangles;
+  j["decimate_error"] = s.decimate_error;
+  j["decimate_kept_whole"] = s.decimate_kept_whole;
+  j["decimate_rounds"] = s.decimate_rounds;
   j["flipped_triangles"] = s.flipped_triangles;
   j["ranks"] = 1;  // one process (an MPI run over K ranks says K: docs/cluster.md)
   j["threads"] = s.threads;
@@ -782,6 +823,9 @@ std::string stats_to_json(const Result& result) {
   q["erode"] = p.erode;
   q["min_particles"] = p.min_particles;
   if (!p.particle_box.empty()) q["particle_box"] = p.particle_box;
+  if (!p.clip_box.empty()) q["clip_box"] = p.clip_box;
+  q["clip_cap"] = p.clip_cap;
+  q["decimate"] = p.decimate;
   q["transfer"] = p.transfer;
   q["transfer_radius"] = p.transfer_radius;
   q["threads"] = p.threads;

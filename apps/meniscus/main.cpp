@@ -128,6 +128,16 @@ void add_surface_options(CLI::App& cmd, SurfaceArgs& a) {
                  "drop surface components enclosing fewer particles than this (strays, particles stuck in a wall; "
                  "default 0: keep every droplet)")
       ->check(CLI::NonNegativeNumber);
+  cmd.add_option("--clip-box", p.clip_box,
+                 "xmin,ymin,zmin,xmax,ymax,zmax: cut the finished surface by this box, open along the cut (the tank's "
+                 "walls and floor go)")
+      ->delimiter(',')
+      ->expected(6);
+  cmd.add_flag("--clip-cap", p.clip_cap, "close the --clip-box cut with the box's faces (the mesh stays watertight)");
+  cmd.add_option("--decimate", p.decimate,
+                 "simplify the mesh while it stays within this many spacings of the full one (e.g. 0.02; default 0: "
+                 "keep every triangle)")
+      ->check(CLI::Range(0.0, 1.0));
   cmd.add_option("--transfer", p.transfer, "particle attributes to carry onto the vertices (comma separated)")
       ->delimiter(',');
   cmd.add_option("--transfer-radius", p.transfer_radius, "radius of the attribute transfer kernel (default 2 d)")
@@ -188,6 +198,9 @@ void apply_artist_controls(const CLI::App& cmd, SurfaceArgs& a) {
   take("--erode", &Params::erode);
   take("--min-particles", &Params::min_particles);
   take("--particle-box", &Params::particle_box);
+  take("--clip-box", &Params::clip_box);
+  take("--clip-cap", &Params::clip_cap);
+  take("--decimate", &Params::decimate);
   take("--transfer", &Params::transfer);
   take("--transfer-radius", &Params::transfer_radius);
   take("--threads", &Params::threads);
@@ -549,6 +562,9 @@ int run_surface_ranks(const cli::MpiSession& mpi, const SurfaceArgs& a) {
   if (!a.preview_path.empty() || !a.field_path.empty())
     throw InvalidParameter("--preview and --save-field are not available over MPI ranks: render the mesh afterwards "
                            "(meniscus render)");
+  if (!a.params.clip_box.empty() || a.params.decimate > 0)
+    throw InvalidParameter("--clip-box and --decimate work on the whole mesh and are not available over MPI ranks: "
+                           "surface in one process to use them");
   if (a.pieces && !a.output.ends_with(".pvtp"))
     throw InvalidParameter(fmt::format("--pieces: the output '{}' must be the .pvtp index of the pieces (big.pvtp → "
                                        "big_0.vtp, big_1.vtp …)", a.output));

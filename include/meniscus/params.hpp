@@ -94,6 +94,16 @@ struct Params {
   /// Drop the surface's closed components that enclose fewer particles than this (lone
   /// particles, particles stuck in a wall); 0 keeps every droplet.
   int min_particles = 0;
+  /// xmin, ymin, zmin, xmax, ymax, zmax: the finished (smoothed) surface is cut by this box —
+  /// triangles crossing a face split on it, nothing outside kept, the mesh open along the cut
+  /// (the tank's walls and floor go, the water's top stays); empty: no cut.
+  std::vector<double> clip_box;
+  /// Close the clip_box cut with the box's faces, so the mesh stays watertight.
+  bool clip_cap = false;
+  /// Simplify the finished mesh (meshoptimizer's edge collapses) while the distance between the
+  /// simplified and the full surface stays at most this many spacings, measured (DecimateOutcome);
+  /// 0: no simplification. 0.02 keeps flat water to a fiftieth of a spacing.
+  double decimate = 0;
   std::vector<std::string> transfer;   ///< particle attributes to carry onto the vertices
   double transfer_radius = 0;          ///< 0: 2 d
 

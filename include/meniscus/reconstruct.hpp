@@ -52,6 +52,14 @@ struct Stats {
   std::size_t flipped_triangles = 0;   ///< triangles whose normal reversed during erosion
   std::size_t removed_strays = 0;      ///< components enclosing fewer than min_particles particles
   std::size_t particles_outside_box = 0;  ///< particles ignored by particle_box
+  std::size_t clipped_triangles = 0;   ///< clip_box: triangles wholly outside the box, removed
+  std::size_t cut_triangles = 0;       ///< clip_box: triangles crossing a face, replaced by their part inside
+  std::size_t cap_triangles = 0;       ///< clip_cap: triangles added on the box's faces
+  std::size_t cap_open_edges = 0;      ///< clip_cap: edges left open (0: watertight; see warnings)
+  std::size_t decimated_triangles = 0; ///< decimate: triangles the simplification removed
+  double decimate_error = 0;           ///< decimate: the largest distance measured between the surfaces
+  std::size_t decimate_kept_whole = 0; ///< decimate: components kept unsimplified to hold the bound
+  int decimate_rounds = 0;             ///< decimate: simplifications run (mesh/decimate.hpp)
   std::size_t peak_memory_bytes = 0;   ///< peak resident set size of the process
   int threads = 0;
   std::string threads_from;            ///< where the thread count came from: --threads, the CPU affinity, Slurm

@@ -89,27 +89,33 @@ void compact_in_place(std::vector<T>& values, std::size_t per, const std::vector
   values.resize(offsets[chunks] * per);
 }
 
+/// Drops the vertices without used[v] (in order; normals and attributes follow) and renumbers the
+/// triangles' corners, which must all be used vertices.
+inline void compact_vertices(TriangleMesh& mesh, const std::vector<uint8_t>& used) {
+  std::vector<std::size_t> offsets;
+  if (chunk_offsets(used, offsets) == mesh.vertices.size()) return;
+  std::vector<uint32_t> remap;
+  assign_populated(remap, mesh.vertices.size(), ~0u);
+  for_each_set(used, offsets, [&](std::size_t v, std::size_t k) { remap[v] = uint32_t(k); });
+  compact_in_place(mesh.vertices, 1, used, offsets);
+  compact_in_place(mesh.normals, 1, used, offsets);
+  for (Attribute& a : mesh.attributes) compact_in_place(a.values, std::size_t(a.components), used, offsets);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.triangles.size(), 4096), [&](const auto& r) {
+    for (std::size_t t = r.begin(); t != r.end(); ++t)
+      for (uint32_t& v : mesh.triangles[t]) v = remap[v];
+  });
+}
+
 /// Compacts the mesh to the triangles with kept[t] and the vertices with used[v] (which must be
 /// every vertex a kept triangle uses), in order; returns the number of triangles dropped.
 inline std::size_t compact_mesh(TriangleMesh& mesh, std::vector<uint8_t>& kept, const std::vector<uint8_t>& used) {
-  const std::size_t nt = mesh.triangles.size(), nv = mesh.vertices.size();
+  const std::size_t nt = mesh.triangles.size();
   std::vector<std::size_t> offsets;
   const std::size_t new_nt = chunk_offsets(kept, offsets);
   if (new_nt == nt) return 0;
   compact_in_place(mesh.triangles, 1, kept, offsets);
   std::vector<uint8_t>().swap(kept);
-
-  chunk_offsets(used, offsets);
-  std::vector<uint32_t> remap;
-  assign_populated(remap, nv, ~0u);
-  for_each_set(used, offsets, [&](std::size_t v, std::size_t k) { remap[v] = uint32_t(k); });
-  compact_in_place(mesh.vertices, 1, used, offsets);
-  compact_in_place(mesh.normals, 1, used, offsets);
-  for (Attribute& a : mesh.attributes) compact_in_place(a.values, std::size_t(a.components), used, offsets);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, new_nt, 4096), [&](const auto& r) {
-    for (std::size_t t = r.begin(); t != r.end(); ++t)
-      for (uint32_t& v : mesh.triangles[t]) v = remap[v];
-  });
+  compact_vertices(mesh, used);
   return nt - new_nt;
 }
 

@@ -1,0 +1,40 @@
+// meniscus — simplification of the finished mesh under a bound on the geometric error: flat water
+// loses most of its triangles, splashes and droplets keep theirs. The edge collapses are
+// meshoptimizer's (meshopt_simplify: Garland & Heckbert's quadric error metric, "Surface
+// Simplification Using Quadric Error Metrics", SIGGRAPH 1997, with its topology checks); what
+// this stage adds is the contract — every result is measured against the full mesh and a
+// component that would break it keeps its full triangles.
+#pragma once
+
+#include <cstddef>
+
+#include "meniscus/mesh.hpp"
+
+namespace meniscus {
+
+struct DecimateOutcome {
+  std::size_t triangles_before = 0;
+  std::size_t triangles_after = 0;
+  /// The largest distance measured between the two surfaces: of each vertex the simplification
+  /// removed to the simplified surface, and of the centroid and edge midpoints of each simplified
+  /// triangle to the full surface (≤ max_error).
+  double max_error = 0;
+  /// Simplifications run: the first, and one more each time the full triangles around the
+  /// vertices where the contract broke were set aside.
+  int rounds = 0;
+  /// Components kept whole because the contract still broke after the last round.
+  std::size_t kept_whole = 0;
+};
+
+/// Simplifies `mesh` (closed, or open along borders such as a clip's cut, which stay as they are)
+/// in place: edges are collapsed while meshoptimizer's error stays under max_error / 2 (a world
+/// distance); the vertices no triangle uses are then dropped, and the normals and attributes of
+/// the others follow unchanged (no vertex moves). The result is then checked: every edge shared
+/// by exactly two triangles in opposite directions (or a border edge of the input), every
+/// component keeping triangles, and the distances of DecimateOutcome::max_error at most
+/// max_error. Where it breaks, the full triangles around the offending vertices are kept and the
+/// rest simplified again, up to 8 rounds; a component that still breaks it stays
+/// whole. max_error ≤ 0 leaves the mesh as it is.
+DecimateOutcome decimate(TriangleMesh& mesh, double max_error);
+
+}  // namespace meniscus

@@ -1,11 +1,16 @@
-// meniscus io — Houdini binary-JSON geometry (SideFX UT_JSONDefines.h token ids, geo.html schema, hgeo.py paging).
+// meniscus io — Houdini binary-JSON geometry (SideFX UT_JSONDefines.h token ids, geo.html schema, hgeo.py paging):
+// reader of points and polygon meshes, writer of triangle meshes (the stream inside a .bgeo.sc).
 #include "io/bgeo_json.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <functional>
 #include <limits>
 #include <optional>
+#include <set>
+#include <string_view>
+#include <type_traits>
 #include <unordered_map>
 
 #include <fmt/format.h>
@@ -471,45 +476,153 @@ void read_attribute(BinaryJson& json, std::vector<PointAttribute>& out) {
   out.push_back(std::move(a));
 }
 
-}  // namespace
+// Closed polygons in primitive order: a run of consecutive vertices from `start` whose sizes are
+// listed ("n_v") or run-length encoded as (size, repeat) pairs ("r_v"), or one polygon listed by
+// its vertex numbers ("Poly", or one primitive of a Houdini 12 "run").
+struct Polygons {
+  std::size_t at = 0;  // where the primitive entry starts, for messages
+  bool run = false;
+  int64_t start = 0, primitives = 0;
+  std::vector<double> sizes, rle;
+  std::vector<double> vertices;
+};
 
-bool sniff_bgeo_json(ByteView bytes) {
-  if (bytes.size() < 5 || bytes[0] != 0x7F) return false;
-  const ByteView tag = bytes.subspan(1, 4);
-  return std::equal(tag.begin(), tag.end(), "NSJb") || std::equal(tag.begin(), tag.end(), "bJSN");
+// What the reader collects; topology and primitives only when a mesh is asked for.
+struct Geometry {
+  std::optional<int64_t> point_count, vertex_count;
+  std::size_t point_count_at = 0, vertex_count_at = 0;
+  std::vector<PointAttribute> attributes;
+  std::optional<std::vector<double>> pointref;  // the point of each vertex
+  std::size_t pointref_at = 0;
+  std::vector<Polygons> polygons;
+};
+
+void read_topology(BinaryJson& json, Geometry& g) {
+  json.for_each_entry("the topology", [&](const std::string& key) {
+    if (key != "pointref") return json.skip_value();
+    json.for_each_entry("the point references", [&](const std::string& inner) {
+      if (inner != "indices") return json.skip_value();
+      g.pointref_at = json.offset();
+      g.pointref.emplace();
+      json.read_numbers(*g.pointref, "the point of each vertex");
+    });
+  });
 }
 
-ParticleSet read_bgeo_json_particles(const Source& source, const ReadOptions& /*options*/, ReadReport* report) {
-  BinaryJson json(source);
-  std::optional<int64_t> point_count;
-  std::size_t count_at = 0;
-  std::vector<PointAttribute> attributes;
+void read_polygon_run(BinaryJson& json, Polygons& run) {
+  run.run = true;
+  json.for_each_entry("a polygon run", [&](const std::string& key) {
+    if (key == "s_v" || key == "startvertex") run.start = json.read_integer("the run's first vertex");
+    else if (key == "n_p" || key == "nprimitives") run.primitives = json.read_integer("the run's primitive count");
+    else if (key == "r_v" || key == "nvertices_rle") json.read_numbers(run.rle, "the run-length encoded vertex counts");
+    else if (key == "n_v" || key == "nvertices") json.read_numbers(run.sizes, "the vertex counts of the run");
+    else json.skip_value();
+  });
+}
+
+// The definition ([type, …]) and data of every primitive; closed polygons are kept.
+void read_primitives(BinaryJson& json, Geometry& g) {
+  json.expect(jid_array_begin, "the primitives (a list of [definition, data] pairs)");
+  while (!json.try_consume(jid_array_end)) {
+    Polygons p;
+    p.at = json.offset();
+    json.expect(jid_array_begin, "a primitive ([definition, data])");
+    std::string type, run_type;
+    std::vector<std::string> varying;
+    bool uniform_closed = true;
+    json.for_each_entry("a primitive definition", [&](const std::string& key) {
+      if (key == "type") {
+        type = json.read_string("the primitive type");
+      } else if (key == "runtype") {
+        run_type = json.read_string("the primitive type of a run");
+      } else if (key == "varyingfields") {
+        json.expect(jid_array_begin, "the varying fields of a run");
+        while (!json.try_consume(jid_array_end)) varying.push_back(json.read_string("a varying field"));
+      } else if (key == "uniformfields") {
+        json.for_each_entry("the uniform fields of a run", [&](const std::string& field) {
+          if (field == "closed") uniform_closed = json.read_number("the closed flag") != 0.0;
+          else json.skip_value();
+        });
+      } else {
+        json.skip_value();
+      }
+    });
+    if (type == "p_r" || type == "Polygon_run") {
+      read_polygon_run(json, p);
+      g.polygons.push_back(std::move(p));
+    } else if (type == "Poly" || type == "Polygon") {
+      bool closed = true;
+      json.for_each_entry("a polygon", [&](const std::string& key) {
+        if (key == "vertex") json.read_numbers(p.vertices, "the polygon's vertices");
+        else if (key == "closed") closed = json.read_number("the closed flag") != 0.0;
+        else json.skip_value();
+      });
+      if (closed) g.polygons.push_back(std::move(p));
+    } else if (type == "run" && run_type == "Poly") {
+      // Houdini 12: one array per polygon holding a value for each varying field.
+      json.expect(jid_array_begin, "the polygons of a run");
+      while (!json.try_consume(jid_array_end)) {
+        Polygons poly;
+        poly.at = json.offset();
+        bool closed = uniform_closed;
+        json.expect(jid_array_begin, "a polygon of a run (one value per varying field)");
+        for (const std::string& field : varying) {
+          if (field == "vertex") json.read_numbers(poly.vertices, "the polygon's vertices");
+          else if (field == "closed") closed = json.read_number("the closed flag") != 0.0;
+          else json.skip_value();
+        }
+        while (!json.try_consume(jid_array_end)) json.skip_value();
+        if (closed) g.polygons.push_back(std::move(poly));
+      }
+    } else {
+      json.skip_value();  // open curves ("c_r"), particles, volumes, packed primitives …
+    }
+    while (!json.try_consume(jid_array_end)) json.skip_value();
+  }
+}
+
+Geometry read_geometry(BinaryJson& json, bool want_mesh) {
+  Geometry g;
   json.for_each_entry("the geometry", [&](const std::string& key) {
     if (key == "pointcount") {
-      count_at = json.offset();
-      point_count = json.read_integer("the point count");
+      g.point_count_at = json.offset();
+      g.point_count = json.read_integer("the point count");
+    } else if (key == "vertexcount" && want_mesh) {
+      g.vertex_count_at = json.offset();
+      g.vertex_count = json.read_integer("the vertex count");
     } else if (key == "attributes") {
       json.for_each_entry("the attributes", [&](const std::string& kind) {
         if (kind != "pointattributes") return json.skip_value();
         json.expect(jid_array_begin, "the point attributes");
-        while (!json.try_consume(jid_array_end)) read_attribute(json, attributes);
+        while (!json.try_consume(jid_array_end)) read_attribute(json, g.attributes);
       });
+    } else if (key == "topology" && want_mesh) {
+      read_topology(json, g);
+    } else if (key == "primitives" && want_mesh) {
+      read_primitives(json, g);
     } else {
       json.skip_value();
     }
   });
-  if (!point_count) json.fail_at(5, "expected a 'pointcount' entry in the geometry");
+  return g;
+}
+
+std::size_t checked_point_count(const BinaryJson& json, const Geometry& g, std::size_t data_size) {
+  if (!g.point_count) json.fail_at(5, "expected a 'pointcount' entry in the geometry");
   // Constant pages let a few bytes stand for many points; bound the expansion like gzip's
   // ~1000:1 so a hostile count cannot make us allocate without limit.
-  const uint64_t ceiling = uint64_t(source.bytes.size()) * 1024;
-  if (*point_count < 0 || uint64_t(*point_count) > ceiling)
-    json.fail_at(count_at, fmt::format("expected a point count from 0 to {} (1024 × the data size), found {}", ceiling,
-                                       *point_count));
-  const std::size_t count = std::size_t(*point_count);
+  const uint64_t ceiling = uint64_t(data_size) * 1024;
+  if (*g.point_count < 0 || uint64_t(*g.point_count) > ceiling)
+    json.fail_at(g.point_count_at, fmt::format("expected a point count from 0 to {} (1024 × the data size), found {}",
+                                               ceiling, *g.point_count));
+  return std::size_t(*g.point_count);
+}
 
+// P → positions, every other numeric point attribute → an Attribute under its file name.
+ParticleSet points_of(const BinaryJson& json, const Geometry& g, std::size_t count) {
   ParticleSet particles;
   bool have_position = false;
-  for (const PointAttribute& a : attributes) {
+  for (const PointAttribute& a : g.attributes) {
     std::vector<float> values = unpack(json, a, count);
     if (a.name == "P") {
       if (a.tuple_size < 3)
@@ -529,8 +642,430 @@ ParticleSet read_bgeo_json_particles(const Source& source, const ReadOptions& /*
     particles.attributes.push_back(std::move(out));
   }
   if (!have_position && count > 0) json.fail_at(5, "expected a numeric point attribute 'P' (the positions)");
+  return particles;
+}
+
+// The closed polygons as triangles, every vertex number and point reference checked.
+std::vector<Triangle> triangles_of(const BinaryJson& json, const Geometry& g, std::size_t point_count) {
+  std::vector<Triangle> out;
+  if (g.polygons.empty()) return out;
+  if (!g.pointref)
+    json.fail_at(g.polygons.front().at, "expected a 'topology' entry (pointref indices) for the polygons");
+  const std::vector<double>& ref = *g.pointref;
+  if (g.vertex_count && uint64_t(*g.vertex_count) != ref.size())
+    json.fail_at(g.vertex_count_at, fmt::format("expected the vertex count to match the {} topology indices, found {}",
+                                                ref.size(), *g.vertex_count));
+  std::vector<uint32_t> point(ref.size());
+  for (std::size_t v = 0; v < ref.size(); ++v) {
+    if (!(ref[v] >= 0 && ref[v] < double(point_count)) || ref[v] != std::floor(ref[v]))
+      json.fail_at(g.pointref_at, fmt::format("expected the point of vertex {} to be a point number below {}, found {}",
+                                              v, point_count, ref[v]));
+    point[v] = uint32_t(ref[v]);
+  }
+  const uint64_t vertices = ref.size();
+  // A fan per polygon, wound back from Houdini's clockwise into our counter-clockwise.
+  auto fan = [&](std::size_t size, const auto& vertex) {
+    const uint32_t p0 = point[vertex(0)];
+    for (std::size_t k = 1; k + 1 < size; ++k) out.push_back({p0, point[vertex(k + 1)], point[vertex(k)]});
+  };
+  for (const Polygons& p : g.polygons) {
+    if (!p.run) {
+      if (p.vertices.size() < 3)
+        json.fail_at(p.at, fmt::format("expected a closed polygon with at least 3 vertices, found {}", p.vertices.size()));
+      for (const double v : p.vertices)
+        if (!(v >= 0 && v < double(vertices)) || v != std::floor(v))
+          json.fail_at(p.at, fmt::format("expected polygon vertices below the vertex count {}, found {}", vertices, v));
+      fan(p.vertices.size(), [&](std::size_t k) { return std::size_t(p.vertices[k]); });
+      continue;
+    }
+    if (p.start < 0 || uint64_t(p.start) > vertices)
+      json.fail_at(p.at, fmt::format("expected a polygon run starting at a vertex from 0 to {}, found {}", vertices,
+                                     p.start));
+    if (p.primitives < 0)
+      json.fail_at(p.at, fmt::format("expected a non-negative primitive count for a polygon run, found {}", p.primitives));
+    if (p.rle.size() % 2 != 0)
+      json.fail_at(p.at, fmt::format("expected (vertex count, repeat) pairs in 'r_v', found {} values", p.rle.size()));
+    uint64_t next = uint64_t(p.start);
+    uint64_t left = uint64_t(p.primitives);
+    // `repeat` polygons of `size` vertices each, checked against the vertices and primitives left.
+    auto polygons = [&](double size, double repeat) {
+      if (!(size >= 3 && size <= double(vertices)) || size != std::floor(size))
+        json.fail_at(p.at, fmt::format("expected polygon vertex counts from 3 to {} in a polygon run, found {}", vertices,
+                                       size));
+      if (!(repeat >= 0 && repeat <= double(left)) || repeat != std::floor(repeat))
+        json.fail_at(p.at, fmt::format("expected at most the {} primitives left in the run, found a repeat of {}", left,
+                                       repeat));
+      const uint64_t n = uint64_t(size), r = uint64_t(repeat);
+      if (r > (vertices - next) / n)
+        json.fail_at(p.at, fmt::format("expected the polygon run to fit the {} vertices, it needs {} from vertex {}",
+                                       vertices, n * r, next));
+      for (uint64_t i = 0; i < r; ++i, next += n) fan(std::size_t(n), [&](std::size_t k) { return std::size_t(next + k); });
+      left -= r;
+    };
+    for (std::size_t i = 0; i + 1 < p.rle.size(); i += 2) polygons(p.rle[i], p.rle[i + 1]);
+    for (const double size : p.sizes) polygons(size, 1);
+    if (left != 0)
+      json.fail_at(p.at, fmt::format("expected vertex counts for all {} primitives of the polygon run, {} have none",
+                                     p.primitives, left));
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writer
+//
+// The stream, as Houdini 18.5 writes a polygon mesh (compare the decompressed
+// tests/data/houdini_pop_splatter_13883_points.bgeo.sc): little-endian, every string a token
+// defined at its first use and referenced after, integers in the smallest signed type.
+//   [ "fileversion", "18.5.506", "hasindex", false, "pointcount", n, "vertexcount", 3t,
+//     "primitivecount", t, "info", {"software": "meniscus <version>", "bounds": real32[6]},
+//     "topology", ["pointref", ["indices", int32[3t]]],
+//     "attributes", ["pointattributes", [P, N, the mesh attributes …]],
+//     "primitives", [[["type", "p_r"], ["s_v", 0, "n_p", t, "r_v", int16|int32[3, t]]]] ]
+// where "p_r", "s_v", "n_p", "r_v" are what Houdini's binary writer calls a Polygon_run and its
+// startvertex, nprimitives, nvertices_rle (the ASCII .geo spells them out), and an attribute is
+//   [["scope", "public", "type", "numeric", "name", N, "options", {"type": {"type": "string",
+//     "value": "point"|"normal"|"color"|"vector"}} or {}],
+//    ["size", k, "storage", "fpreal32"|"int32", "defaults", ["size", 1, "storage", "fpreal64",
+//     "values", real64[1]], "values", ["size", k, "storage", …, "pagesize", 1024,
+//     "rawpagedata", real32|int32[k n]]]]
+// rawpagedata without "packing" or "constantpageflags" is one sub-vector of the whole tuple on
+// every page, i.e. the element-major array itself (hgeo.py: packing defaults to [size]).
+
+constexpr const char* houdini_file_version = "18.5.506";
+constexpr int64_t page_size = 1024;
+constexpr std::size_t flush_at = std::size_t(1) << 20;
+
+class BinaryJsonWriter {
+ public:
+  explicit BinaryJsonWriter(const std::function<void(ByteView)>& sink) : sink_(sink) {
+    out_.reserve(flush_at + 4096);
+    for (const char c : std::string_view("\x7FNSJb")) out_.push_back(uint8_t(c));
+  }
+
+  void begin_array() { out_.push_back(jid_array_begin); }
+  void end_array() { out_.push_back(jid_array_end); }
+  void begin_map() { out_.push_back(jid_map_begin); }
+  void end_map() { out_.push_back(jid_map_end); }
+  void boolean(bool value) { out_.push_back(value ? jid_true : jid_false); }
+
+  void string(std::string_view text) {
+    auto it = tokens_.find(std::string(text));
+    if (it == tokens_.end()) {
+      it = tokens_.emplace(std::string(text), uint64_t(tokens_.size())).first;
+      out_.push_back(jid_token_def);
+      length(it->second);
+      length(text.size());
+      out_.insert(out_.end(), text.begin(), text.end());
+    }
+    out_.push_back(jid_token_ref);
+    length(it->second);
+  }
+
+  void integer(int64_t v) {
+    if (v >= std::numeric_limits<int8_t>::min() && v <= std::numeric_limits<int8_t>::max()) {
+      out_.push_back(jid_int8);
+      put(int8_t(v));
+    } else if (v >= std::numeric_limits<int16_t>::min() && v <= std::numeric_limits<int16_t>::max()) {
+      out_.push_back(jid_int16);
+      put(int16_t(v));
+    } else if (v >= std::numeric_limits<int32_t>::min() && v <= std::numeric_limits<int32_t>::max()) {
+      out_.push_back(jid_int32);
+      put(int32_t(v));
+    } else {
+      out_.push_back(jid_int64);
+      put(v);
+    }
+  }
+
+  // A uniform array of `count` values of `T` (element type `type`), value(i) for the i-th,
+  // handed to the sink as it grows.
+  template <class T, class Value>
+  void uniform_array(uint8_t type, std::size_t count, const Value& value) {
+    out_.push_back(jid_uniform_array);
+    out_.push_back(type);
+    length(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      put(T(value(i)));
+      if ((i & 0xFFFF) == 0xFFFF) flush(false);
+    }
+  }
+
+  // Hands the bytes so far to the sink once there is about a chunk of them (or when `force`).
+  void flush(bool force) {
+    if (out_.empty() || (!force && out_.size() < flush_at)) return;
+    sink_(out_);
+    out_.clear();
+  }
+
+ private:
+  // Lengths and token ids: one byte below 0xF1, else 0xF2/0xF4/0xF8 and a uint16/uint32/int64.
+  void length(uint64_t n) {
+    if (n < 0xF1) {
+      out_.push_back(uint8_t(n));
+    } else if (n <= 0xFFFF) {
+      out_.push_back(0xF2);
+      put(uint16_t(n));
+    } else if (n <= 0xFFFFFFFFu) {
+      out_.push_back(0xF4);
+      put(uint32_t(n));
+    } else {
+      out_.push_back(0xF8);
+      put(int64_t(n));
+    }
+  }
+
+  template <class T>
+  void put(T value) {
+    using U = std::conditional_t<sizeof(T) == 1, uint8_t,
+              std::conditional_t<sizeof(T) == 2, uint16_t,
+              std::conditional_t<sizeof(T) == 4, uint32_t, uint64_t>>>;
+    const U u = std::bit_cast<U>(value);
+    for (std::size_t i = 0; i < sizeof(T); ++i) out_.push_back(uint8_t(u >> (8 * i)));
+  }
+
+  const std::function<void(ByteView)>& sink_;
+  Bytes out_;
+  std::unordered_map<std::string, uint64_t> tokens_;
+};
+
+struct OutputAttribute {
+  std::string name;
+  const char* type_info;  // Houdini's typeinfo option, or nullptr
+  int components;
+  double default_value;
+  const float* values;  // element-major, `components` per point
+  bool integer;
+};
+
+// P, N and the mesh attributes under the names Houdini knows (as write_bgeo_mesh names them).
+std::vector<OutputAttribute> output_attributes(const std::string& path, const TriangleMesh& mesh) {
+  std::vector<OutputAttribute> out;
+  std::set<std::string> names;
+  auto add = [&](OutputAttribute a, const std::string& from) {
+    if (a.name.empty())
+      throw InvalidParameter(fmt::format("cannot write '{}': an attribute has an empty name", path));
+    if (!names.insert(a.name).second)
+      throw InvalidParameter(fmt::format("cannot write '{}': attribute '{}' would be written as '{}', which is already "
+                                         "used",
+                                         path, from, a.name));
+    out.push_back(std::move(a));
+  };
+  const float* positions = mesh.vertices.empty() ? nullptr : &mesh.vertices[0].x;
+  add({"P", "point", 3, 0.0, positions, false}, "positions");
+  if (!mesh.normals.empty()) add({"N", "normal", 3, 0.0, &mesh.normals[0].x, false}, "normals");
+  for (const Attribute& a : mesh.attributes) {
+    // Cd and v (renamed from meniscus's names, or carried over from a Houdini cache under
+    // Houdini's) get their type info, so Houdini shows Cd as colour and transforms v.
+    const bool vector3 = a.components == 3 && !a.integer;
+    const std::string name = !vector3 ? a.name : a.name == "color" ? "Cd" : a.name == "velocity" ? "v" : a.name;
+    if (vector3 && name == "Cd") add({name, "color", 3, 1.0, a.values.data(), false}, a.name);
+    else if (vector3 && name == "v") add({name, "vector", 3, 0.0, a.values.data(), false}, a.name);
+    else add({name, nullptr, a.components, 0.0, a.values.data(), a.integer}, a.name);
+  }
+  // Integer attributes must survive the int32 conversion; refuse before anything is written.
+  const std::size_t nv = mesh.vertices.size();
+  for (const OutputAttribute& a : out) {
+    if (!a.integer) continue;
+    for (std::size_t i = 0; i < nv * std::size_t(a.components); ++i)
+      if (!(a.values[i] >= -2147483648.0f && a.values[i] < 2147483648.0f))
+        throw InvalidParameter(fmt::format("cannot write '{}': integer attribute '{}' has value {} at vertex {}, "
+                                           "outside the int32 range",
+                                           path, a.name, a.values[i], i / std::size_t(a.components)));
+  }
+  return out;
+}
+
+void write_attribute(BinaryJsonWriter& w, const OutputAttribute& a, std::size_t count) {
+  const char* storage = a.integer ? "int32" : "fpreal32";
+  w.begin_array();
+  w.begin_array();
+  w.string("scope");
+  w.string("public");
+  w.string("type");
+  w.string("numeric");
+  w.string("name");
+  w.string(a.name);
+  w.string("options");
+  w.begin_map();
+  if (a.type_info) {
+    w.string("type");
+    w.begin_map();
+    w.string("type");
+    w.string("string");
+    w.string("value");
+    w.string(a.type_info);
+    w.end_map();
+  }
+  w.end_map();
+  w.end_array();
+
+  w.begin_array();
+  w.string("size");
+  w.integer(a.components);
+  w.string("storage");
+  w.string(storage);
+  w.string("defaults");
+  w.begin_array();
+  w.string("size");
+  w.integer(1);
+  w.string("storage");
+  w.string("fpreal64");
+  w.string("values");
+  w.uniform_array<double>(jid_real64, 1, [&](std::size_t) { return a.default_value; });
+  w.end_array();
+  w.string("values");
+  w.begin_array();
+  w.string("size");
+  w.integer(a.components);
+  w.string("storage");
+  w.string(storage);
+  w.string("pagesize");
+  w.integer(page_size);
+  w.string("rawpagedata");
+  const std::size_t n = count * std::size_t(a.components);
+  if (a.integer)
+    w.uniform_array<int32_t>(jid_int32, n, [&](std::size_t i) { return int32_t(std::lround(a.values[i])); });
+  else
+    w.uniform_array<float>(jid_real32, n, [&](std::size_t i) { return a.values[i]; });
+  w.end_array();
+  w.end_array();
+  w.end_array();
+}
+
+}  // namespace
+
+bool sniff_bgeo_json(ByteView bytes) {
+  if (bytes.size() < 5 || bytes[0] != 0x7F) return false;
+  const ByteView tag = bytes.subspan(1, 4);
+  return std::equal(tag.begin(), tag.end(), "NSJb") || std::equal(tag.begin(), tag.end(), "bJSN");
+}
+
+ParticleSet read_bgeo_json_particles(const Source& source, const ReadOptions& /*options*/, ReadReport* report) {
+  BinaryJson json(source);
+  const Geometry g = read_geometry(json, false);
+  ParticleSet particles = points_of(json, g, checked_point_count(json, g, source.bytes.size()));
   if (report) report->format = "bgeo (binary JSON)";
   return particles;
+}
+
+TriangleMesh read_bgeo_json_mesh(const Source& source) {
+  BinaryJson json(source);
+  const Geometry g = read_geometry(json, true);
+  const std::size_t count = checked_point_count(json, g, source.bytes.size());
+  ParticleSet points = points_of(json, g, count);
+  TriangleMesh mesh;
+  mesh.triangles = triangles_of(json, g, count);
+  mesh.vertices = std::move(points.positions);
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const Vec3f p = mesh.vertices[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      throw FormatError(source.path, fmt::format("point {}", i),
+                        fmt::format("expected finite coordinates, found ({}, {}, {})", p.x, p.y, p.z));
+  }
+  for (Attribute& a : points.attributes) {
+    const bool vector3 = a.components == 3 && !a.integer;
+    if (a.name == "N" && vector3) {
+      mesh.normals.resize(mesh.vertices.size());
+      for (std::size_t i = 0; i < mesh.normals.size(); ++i)
+        mesh.normals[i] = {a.values[3 * i], a.values[3 * i + 1], a.values[3 * i + 2]};
+      continue;
+    }
+    if (a.name == "Cd" && vector3) a.name = "color";
+    else if (a.name == "v" && vector3) a.name = "velocity";
+    mesh.attributes.push_back(std::move(a));
+  }
+  return mesh;
+}
+
+void encode_bgeo_json_mesh(const std::string& path, const TriangleMesh& mesh,
+                           const std::function<void(ByteView)>& sink) {
+  const std::size_t nv = mesh.vertices.size(), nt = mesh.triangles.size();
+  // Point numbers are written as int32 (as Houdini writes pointref indices).
+  if (nv > std::size_t(std::numeric_limits<int32_t>::max()))
+    throw InvalidParameter(fmt::format("cannot write '{}': {} vertices do not fit bgeo's int32 point numbers", path, nv));
+  check_mesh_for_writing(path, mesh, "bgeo.sc");
+  static_assert(sizeof(Vec3f) == 3 * sizeof(float), "positions and normals are read as packed float triples");
+  const std::vector<OutputAttribute> attributes = output_attributes(path, mesh);
+
+  BinaryJsonWriter w(sink);
+  w.begin_array();
+  w.string("fileversion");
+  w.string(houdini_file_version);
+  w.string("hasindex");
+  w.boolean(false);
+  w.string("pointcount");
+  w.integer(int64_t(nv));
+  w.string("vertexcount");
+  w.integer(int64_t(3 * nt));
+  w.string("primitivecount");
+  w.integer(int64_t(nt));
+
+  w.string("info");
+  w.begin_map();
+  w.string("software");
+  w.string(std::string("meniscus ") + MENISCUS_VERSION);
+  if (nv > 0) {
+    Vec3f lo = mesh.vertices[0], hi = mesh.vertices[0];
+    for (const Vec3f& p : mesh.vertices) {
+      lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+      hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+    }
+    const float bounds[6] = {lo.x, hi.x, lo.y, hi.y, lo.z, hi.z};  // Houdini's order: x range, y, z
+    w.string("bounds");
+    w.uniform_array<float>(jid_real32, 6, [&](std::size_t i) { return bounds[i]; });
+  }
+  w.end_map();
+
+  // Each triangle's corners in Houdini's clockwise order (as write_bgeo_mesh: 0, 2, 1).
+  w.string("topology");
+  w.begin_array();
+  w.string("pointref");
+  w.begin_array();
+  w.string("indices");
+  w.uniform_array<int32_t>(jid_int32, 3 * nt, [&](std::size_t i) {
+    constexpr std::size_t clockwise[3] = {0, 2, 1};
+    return int32_t(mesh.triangles[i / 3][clockwise[i % 3]]);
+  });
+  w.end_array();
+  w.end_array();
+
+  w.string("attributes");
+  w.begin_array();
+  w.string("pointattributes");
+  w.begin_array();
+  for (const OutputAttribute& a : attributes) write_attribute(w, a, nv);
+  w.end_array();
+  w.end_array();
+
+  w.string("primitives");
+  w.begin_array();
+  if (nt > 0) {
+    w.begin_array();
+    w.begin_array();
+    w.string("type");
+    w.string("p_r");
+    w.end_array();
+    w.begin_array();
+    w.string("s_v");
+    w.integer(0);
+    w.string("n_p");
+    w.integer(int64_t(nt));
+    w.string("r_v");
+    // The smallest integer type that holds the run, as Houdini picks it.
+    const std::size_t rle[2] = {3, nt};
+    if (nt <= std::size_t(std::numeric_limits<int16_t>::max()))
+      w.uniform_array<int16_t>(jid_int16, 2, [&](std::size_t i) { return int16_t(rle[i]); });
+    else if (nt <= std::size_t(std::numeric_limits<int32_t>::max()))
+      w.uniform_array<int32_t>(jid_int32, 2, [&](std::size_t i) { return int32_t(rle[i]); });
+    else
+      w.uniform_array<int64_t>(jid_int64, 2, [&](std::size_t i) { return int64_t(rle[i]); });
+    w.end_array();
+    w.end_array();
+  }
+  w.end_array();
+  w.end_array();
+  w.flush(true);
 }
 
 }  // namespace meniscus::io

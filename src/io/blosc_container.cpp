@@ -4,6 +4,9 @@
 // chunk-size slice of the plain .bgeo stream (the last one shorter); then big-endian uint64s:
 // the start of chunks 1 … k−1 relative to byte 12, the chunk size, the uncompressed size of the
 // last chunk, the index size (8(k−1) + 16, counting those fields but not itself); then "1fcs".
+// Houdini 18.5's chunks (tests/data/houdini_pop_splatter_13883_points.bgeo.sc): 1 MiB, Blosc
+// version 2, flags 0x21 (byte shuffle, LZ4), type size 4, block size = chunk size rounded down to
+// the type size; the writer asks c-blosc for exactly that.
 #include "io/blosc_container.hpp"
 
 #include <blosc.h>
@@ -15,6 +18,7 @@
 
 #include "io/bgeo_json.hpp"
 #include "meniscus/errors.hpp"
+#include "meniscus/mesh.hpp"
 
 namespace meniscus::io {
 
@@ -26,6 +30,16 @@ constexpr std::size_t blosc_header = 16;  // BLOSC_MIN_HEADER_LENGTH: version, f
 // LZ4 cannot expand more than ~255:1; a chunk that claims more is corrupt, and refusing it
 // bounds what a hostile header can make us allocate.
 constexpr uint64_t max_expansion = 256;
+
+// The writer's settings, Houdini's (see the top of the file). c-blosc turns the level into LZ4's
+// acceleration (10 − level), so 9 is LZ4's default, strongest setting.
+constexpr std::size_t chunk_size = std::size_t(1) << 20;
+constexpr int compression_level = 9;
+constexpr std::size_t type_size = 4;
+
+void put_be64(Bytes& out, uint64_t v) {
+  for (int shift = 56; shift >= 0; shift -= 8) out.push_back(static_cast<uint8_t>(v >> shift));
+}
 
 }  // namespace
 
@@ -125,6 +139,62 @@ ParticleSet read_bgeo_sc_particles(const Source& source, const ReadOptions& opti
   ParticleSet particles = read_bgeo_json_particles(inner, options, report);
   if (report) report->format = "bgeo.sc (Blosc-compressed binary JSON bgeo)";
   return particles;
+}
+
+TriangleMesh read_bgeo_sc_mesh(const Source& source) {
+  const Bytes plain = decompress_blosc_container(source.bytes, source.path);
+  return read_bgeo_json_mesh(Source{plain, source.path, true});
+}
+
+BloscContainerWriter::BloscContainerWriter(std::string path) : path_(std::move(path)) { plain_.reserve(chunk_size); }
+
+void BloscContainerWriter::write(ByteView bytes) {
+  while (!bytes.empty()) {
+    const std::size_t take = std::min(bytes.size(), chunk_size - plain_.size());
+    plain_.insert(plain_.end(), bytes.begin(), bytes.begin() + std::ptrdiff_t(take));
+    bytes = bytes.subspan(take);
+    if (plain_.size() == chunk_size) compress_chunk();
+  }
+}
+
+void BloscContainerWriter::compress_chunk() {
+  if (!file_) {
+    file_.emplace(path_);
+    file_->write(std::string_view("scf1\0\0\0\0\0\0\0\0", prefix_size));
+  }
+  compressed_.resize(plain_.size() + BLOSC_MAX_OVERHEAD);
+  // One block per chunk (block size = chunk size) as Houdini writes them; the _ctx call keeps no
+  // global state, so writers in several threads are safe.
+  const int n = blosc_compress_ctx(compression_level, BLOSC_SHUFFLE, type_size, plain_.size(), plain_.data(),
+                                   compressed_.data(), compressed_.size(), BLOSC_LZ4_COMPNAME, plain_.size(), 1);
+  if (n <= 0)
+    throw IoError(fmt::format("cannot write '{}': Blosc could not compress chunk {} (returned {})", path_,
+                              chunk_ends_.size(), n));
+  file_->write(compressed_.data(), std::size_t(n));
+  chunk_ends_.push_back((chunk_ends_.empty() ? 0 : chunk_ends_.back()) + uint64_t(n));
+  last_size_ = plain_.size();
+  plain_.clear();
+}
+
+void BloscContainerWriter::commit() {
+  // A stream of whole chunks ends with a full one; an empty stream still gets its (empty) chunk.
+  if (!plain_.empty() || chunk_ends_.empty()) compress_chunk();
+  Bytes index;
+  for (std::size_t i = 0; i + 1 < chunk_ends_.size(); ++i) put_be64(index, chunk_ends_[i]);  // starts of chunks 1 …
+  put_be64(index, chunk_size);
+  put_be64(index, last_size_);
+  put_be64(index, 8 * (chunk_ends_.size() - 1) + 16);
+  for (const char c : std::string_view("1fcs")) index.push_back(static_cast<uint8_t>(c));
+  file_->write(index);
+  file_->commit();
+}
+
+void write_bgeo_sc_mesh(const std::string& path, const TriangleMesh& mesh) {
+  // The encoder checks the whole mesh before its first piece arrives, and the container's file is
+  // created with the first chunk: a mesh that cannot be written leaves no file at all.
+  BloscContainerWriter out(path);
+  encode_bgeo_json_mesh(path, mesh, [&](ByteView bytes) { out.write(bytes); });
+  out.commit();
 }
 
 }  // namespace meniscus::io

@@ -46,6 +46,8 @@ const std::vector<MeshReader>& mesh_readers() {
   static const std::vector<MeshReader> table = {
       {"ply", {".ply"}, &sniff_ply, &read_ply_mesh},
       {"bgeo", {".bgeo"}, &sniff_bgeo_classic, &read_bgeo_classic_mesh},
+      {"bgeo (binary JSON)", {}, &sniff_bgeo_json, &read_bgeo_json_mesh},
+      {"bgeo.sc", {".sc"}, &sniff_blosc_container, &read_bgeo_sc_mesh},
       {"vtk", {".vtk"}, &sniff_vtk_legacy, &read_vtk_legacy_mesh},
       {"obj", {".obj"}, nullptr, &read_obj_mesh},
       {"vtp", {".vtp"}, &sniff_vtu, &read_vtp_mesh},
@@ -57,6 +59,7 @@ const std::vector<MeshWriter>& mesh_writers() {
   static const std::vector<MeshWriter> table = {
       {"ply", {".ply"}, &write_ply_mesh},
       {"bgeo", {".bgeo"}, &write_bgeo_mesh},
+      {"bgeo.sc", {".bgeo.sc", ".sc"}, &write_bgeo_sc_mesh},
       {"obj", {".obj"}, &write_obj_mesh},
       {"vtk", {".vtk"}, &write_vtk_legacy_mesh},
       {"vtp", {".vtp"}, &write_vtp_mesh},
@@ -315,35 +318,44 @@ void write_gzip(const std::string& path, const io::Bytes& bytes) {
   file.commit();
 }
 
+/// The writer for a file name (lower case): the one with the longest extension the name ends
+/// with, so "x.bgeo.sc" goes to the .bgeo.sc writer and never to ".bgeo"'s. Sets `*ext` to it.
+const io::MeshWriter* writer_for(const std::string& name, std::string* ext) {
+  const io::MeshWriter* found = nullptr;
+  for (const io::MeshWriter& writer : io::mesh_writers())
+    for (const std::string& e : writer.extensions)
+      if (name.size() > e.size() && name.ends_with(e) && (!found || e.size() > ext->size())) {
+        found = &writer;
+        *ext = e;
+      }
+  return found;
+}
+
 }  // namespace
 
 void write_mesh(const std::string& path, const TriangleMesh& mesh) {
   const std::string ext = std::filesystem::path(path).extension().string();
-  std::string lower = ext;
-  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  if (lower == ".gz") {
+  std::string name = std::filesystem::path(path).filename().string();
+  std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  std::string inner;
+  const io::MeshWriter* packed = name.ends_with(".gz") ? writer_for(name.substr(0, name.size() - 3), &inner) : nullptr;
+  if (packed) {
     // Any format, gzip-compressed (Houdini reads .bgeo.gz; our readers inflate by content): the
     // inner format's file beside the target, compressed into the target, then removed.
-    const std::string inner = io::format_extension(path);
-    for (const io::MeshWriter& writer : io::mesh_writers())
-      if (std::find(writer.extensions.begin(), writer.extensions.end(), inner) != writer.extensions.end()) {
-        const std::string plain = path + ".uncompressed" + inner;
-        writer.write(plain, mesh);
-        try {
-          const io::Bytes bytes = io::read_file_bytes(plain);
-          std::filesystem::remove(plain);
-          write_gzip(path, bytes);
-        } catch (...) {
-          std::error_code ignored;
-          std::filesystem::remove(plain, ignored);
-          throw;
-        }
-        return;
-      }
+    const std::string plain = path + ".uncompressed" + inner;
+    packed->write(plain, mesh);
+    try {
+      const io::Bytes bytes = io::read_file_bytes(plain);
+      std::filesystem::remove(plain);
+      write_gzip(path, bytes);
+    } catch (...) {
+      std::error_code ignored;
+      std::filesystem::remove(plain, ignored);
+      throw;
+    }
+    return;
   }
-  for (const io::MeshWriter& writer : io::mesh_writers())
-    if (std::find(writer.extensions.begin(), writer.extensions.end(), lower) != writer.extensions.end())
-      return writer.write(path, mesh);
+  if (const io::MeshWriter* writer = writer_for(name, &inner)) return writer->write(path, mesh);
   throw InvalidParameter(fmt::format("cannot write '{}': unknown mesh format '{}'; supported: {}", path,
                                      ext.empty() ? "(no extension)" : ext, io::list_formats(io::mesh_writers())));
 }

@@ -120,7 +120,7 @@ TEST(XyzReader, FormatListsComeFromTheTable) {
   const std::vector<std::string> particles = particle_formats();
   EXPECT_NE(std::find(particles.begin(), particles.end(), ".ply"), particles.end());
   EXPECT_NE(std::find(particles.begin(), particles.end(), ".xyz"), particles.end());
-  EXPECT_EQ(mesh_formats(), (std::vector<std::string>{".ply", ".bgeo", ".obj", ".vtk", ".vtp", ".usda"}));
+  EXPECT_EQ(mesh_formats(), (std::vector<std::string>{".ply", ".bgeo", ".bgeo.sc", ".sc", ".obj", ".vtk", ".vtp", ".usda"}));
   for (const char* ext : {".bgeo", ".sc", ".vtk", ".vtu", ".vtp", ".npy", ".csv", ".txt"})
     EXPECT_NE(std::find(particles.begin(), particles.end(), ext), particles.end()) << ext;
 }

@@ -62,6 +62,34 @@ struct Incidence {
   }
 };
 
+/// The corners after and before v in triangle t.
+std::pair<uint32_t, uint32_t> neighbours(uint32_t v, const Triangle& t) {
+  const int k = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
+  return {t[std::size_t((k + 1) % 3)], t[std::size_t((k + 2) % 3)]};
+}
+
+/// Whether the triangles around v form one fan: walking from one of them to the next across the
+/// edges they share (the next one's corner after v is this one's corner before v), both ways
+/// where the fan is open, visits them all.
+bool single_fan(uint32_t v, const Incidence& around, const std::vector<Triangle>& triangles) {
+  const uint32_t first = around.first[v], count = around.first[v + 1] - first;
+  if (count <= 1) return true;
+  const auto step = [&](uint32_t t, bool forward) {  // the next triangle around v, or UINT32_MAX
+    const auto [after, before] = neighbours(v, triangles[t]);
+    for (uint32_t k = first; k < first + count; ++k) {
+      const auto [a, b] = neighbours(v, triangles[around.triangles[k]]);
+      if (forward ? a == before : b == after) return around.triangles[k];
+    }
+    return UINT32_MAX;
+  };
+  const uint32_t start = around.triangles[first];
+  uint32_t seen = 1, t = start;
+  while (seen <= count && (t = step(t, true)) != UINT32_MAX && t != start) ++seen;
+  if (t == UINT32_MAX)  // an open fan: the other way too
+    for (t = start; seen <= count && (t = step(t, false)) != UINT32_MAX;) ++seen;
+  return seen == count;
+}
+
 /// The vertices of `after` (a simplification of the whole mesh `before`) where it breaks
 /// DecimateOutcome's contract, and the largest distance measured elsewhere.
 struct Verdict {
@@ -75,8 +103,8 @@ struct Verdict {
 constexpr double kMargin = 0.8;
 
 Verdict check(const std::vector<Vec3f>& x, const std::vector<uint32_t>& root, const std::vector<Triangle>& before,
-              const std::vector<Triangle>& after, const std::vector<EdgeKey>& borders, const TriangleBvh& full,
-              double max_error) {
+              const std::vector<Triangle>& after, const std::vector<EdgeKey>& borders,
+              const std::vector<uint8_t>& fan_before, const TriangleBvh& full, double max_error) {
   const std::size_t nv = x.size();
   std::vector<std::atomic<uint8_t>> bad(nv), used(nv);
   std::vector<std::atomic<uint32_t>> left(nv);  // simplified triangles per component root
@@ -96,6 +124,13 @@ Verdict check(const std::vector<Vec3f>& x, const std::vector<uint32_t>& root, co
         bad[uint32_t(e)].store(1, std::memory_order_relaxed);
       }
     }
+  });
+  // Manifold vertices: the triangles around each vertex form one fan, where they did before (a
+  // collapse can pinch two sheets together at a vertex while every edge stays shared by two).
+  const Incidence around(nv, after);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const auto& r) {
+    for (std::size_t v = r.begin(); v != r.end(); ++v)
+      if (fan_before[v] && !single_fan(uint32_t(v), around, after)) bad[v].store(1, std::memory_order_relaxed);
   });
   // Nothing collapsed away (the whole component is a violation), and the distances both ways.
   const TriangleBvh simplified(x, after);
@@ -153,6 +188,10 @@ DecimateOutcome decimate(TriangleMesh& mesh, double max_error) {
   const std::vector<uint32_t> root = component_roots(x.size(), full_triangles);
   const TriangleBvh full(x, full_triangles);
   const Incidence incidence(x.size(), full_triangles);
+  std::vector<uint8_t> fan_before(x.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 4096), [&](const auto& r) {
+    for (std::size_t v = r.begin(); v != r.end(); ++v) fan_before[v] = single_fan(uint32_t(v), incidence, full_triangles);
+  });
   // The input's own open edges (a clip's cut) stay open edges of the result.
   std::vector<EdgeKey> borders;
   {
@@ -176,7 +215,7 @@ DecimateOutcome decimate(TriangleMesh& mesh, double max_error) {
     for (std::size_t t = 0; t < full_triangles.size(); ++t) (kept_full[t] ? set_aside : rest).push_back(full_triangles[t]);
     result = simplify(x, rest, float(max_error / 2 / scale));
     result.insert(result.end(), set_aside.begin(), set_aside.end());
-    Verdict verdict = check(x, root, full_triangles, result, borders, full, max_error);
+    Verdict verdict = check(x, root, full_triangles, result, borders, fan_before, full, max_error);
     outcome.max_error = verdict.max_error;
     outcome.rounds = round + 1;
     if (verdict.violations.empty()) break;
@@ -190,7 +229,7 @@ DecimateOutcome decimate(TriangleMesh& mesh, double max_error) {
         if (whole[root[t[0]]]) kept.push_back(t);
       result.swap(kept);
       for (std::size_t v = 0; v < x.size(); ++v) outcome.kept_whole += whole[v];
-      outcome.max_error = check(x, root, full_triangles, result, borders, full, max_error).max_error;
+      outcome.max_error = check(x, root, full_triangles, result, borders, fan_before, full, max_error).max_error;
       break;
     }
     for (const uint32_t v : verdict.violations)

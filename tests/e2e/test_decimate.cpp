@@ -1,0 +1,215 @@
+// --decimate E: the finished mesh simplified with meshoptimizer under a bound of E spacings on the
+// distance between the simplified and the full surface. The bound is measured here independently
+// of the stage's own check: from every vertex and from random points on the triangles of each
+// mesh to the other, through a uniform grid of triangles and exact point–triangle distances.
+// Also: closed and manifold, no component collapsed, vertices/normals/attributes those of the
+// full mesh, a clip's cut kept as it is.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <random>
+#include <set>
+#include <unordered_map>
+
+#include "mesh/closest_point_impl.hpp"
+#include "meniscus/errors.hpp"
+#include "meniscus/io.hpp"
+#include "meniscus/quality.hpp"
+#include "meniscus/reconstruct.hpp"
+#include "support/test_support.hpp"
+
+namespace meniscus {
+namespace {
+
+/// The triangles of a mesh binned by their bounding boxes into cubes of side `cell`.
+class TriangleGrid {
+ public:
+  TriangleGrid(const TriangleMesh& mesh, float cell) : mesh_(mesh), cell_(cell) {
+    for (uint32_t t = 0; t < mesh.triangles.size(); ++t) {
+      std::array<int, 3> lo{}, hi{};
+      for (int c = 0; c < 3; ++c) {
+        float a = INFINITY, b = -INFINITY;
+        for (uint32_t v : mesh.triangles[t]) a = std::min(a, mesh.vertices[v][c]), b = std::max(b, mesh.vertices[v][c]);
+        lo[std::size_t(c)] = int(std::floor(a / cell)), hi[std::size_t(c)] = int(std::floor(b / cell));
+      }
+      for (int i = lo[0]; i <= hi[0]; ++i)
+        for (int j = lo[1]; j <= hi[1]; ++j)
+          for (int k = lo[2]; k <= hi[2]; ++k) cells_[key(i, j, k)].push_back(t);
+    }
+  }
+  /// The distance from p to the mesh when within one cell of it; INFINITY otherwise.
+  double distance(Vec3f p) const {
+    const int i = int(std::floor(p.x / cell_)), j = int(std::floor(p.y / cell_)), k = int(std::floor(p.z / cell_));
+    double best = INFINITY;
+    for (int a = i - 1; a <= i + 1; ++a)
+      for (int b = j - 1; b <= j + 1; ++b)
+        for (int c = k - 1; c <= k + 1; ++c) {
+          const auto it = cells_.find(key(a, b, c));
+          if (it == cells_.end()) continue;
+          for (uint32_t t : it->second) {
+            const Triangle& tri = mesh_.triangles[t];
+            const Vec3f q = closest_point_on_triangle(p, mesh_.vertices[tri[0]], mesh_.vertices[tri[1]], mesh_.vertices[tri[2]]);
+            best = std::min(best, double(length(q - p)));
+          }
+        }
+    return best <= cell_ ? best : INFINITY;
+  }
+
+ private:
+  static uint64_t key(int i, int j, int k) {
+    return (uint64_t(uint32_t(i) & 0x1fffff) << 42) | (uint64_t(uint32_t(j) & 0x1fffff) << 21) | uint64_t(uint32_t(k) & 0x1fffff);
+  }
+  const TriangleMesh& mesh_;
+  float cell_;
+  std::unordered_map<uint64_t, std::vector<uint32_t>> cells_;
+};
+
+/// The largest distance from `from`'s vertices and `samples` random points on its triangles
+/// (area-weighted) to `to`.
+double farthest(const TriangleMesh& from, const TriangleMesh& to, float cell, std::size_t samples) {
+  const TriangleGrid grid(to, cell);
+  double worst = 0;
+  for (const Vec3f x : from.vertices) worst = std::max(worst, grid.distance(x));
+  std::vector<double> area(from.triangles.size());
+  for (std::size_t t = 0; t < area.size(); ++t) {
+    const Triangle& tri = from.triangles[t];
+    area[t] = double(length(cross(from.vertices[tri[1]] - from.vertices[tri[0]], from.vertices[tri[2]] - from.vertices[tri[0]])));
+  }
+  std::mt19937 rng(7);
+  std::discrete_distribution<std::size_t> pick(area.begin(), area.end());
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  for (std::size_t s = 0; s < samples; ++s) {
+    const Triangle& tri = from.triangles[pick(rng)];
+    float u = unit(rng), v = unit(rng);
+    if (u + v > 1) u = 1 - u, v = 1 - v;
+    const Vec3f a = from.vertices[tri[0]];
+    worst = std::max(worst, grid.distance(a + (from.vertices[tri[1]] - a) * u + (from.vertices[tri[2]] - a) * v));
+  }
+  return worst;
+}
+
+struct Measured {
+  double kept = 0;  ///< triangles kept, a share of the full mesh's
+  double error = 0; ///< the largest distance measured, in spacings
+};
+
+Measured expect_decimated_within_bound(const ParticleSet& ps, Params p, double bound, const std::string& what) {
+  p.backend = Backend::cpu;
+  const Result full = reconstruct(ps, p);
+  p.decimate = bound;
+  const Result simple = reconstruct(ps, p);
+  const double d = full.params.spacing, limit = bound * d;
+  EXPECT_EQ(simple.stats.decimated_triangles, full.mesh.triangles.size() - simple.mesh.triangles.size()) << what;
+  EXPECT_EQ(simple.stats.decimate_kept_whole, 0u) << what;
+  EXPECT_LE(simple.stats.decimate_error, limit) << what;
+
+  const TopologyReport before = analyze_topology(full.mesh), after = analyze_topology(simple.mesh);
+  EXPECT_TRUE(after.watertight()) << what << ": " << after.boundary_edges << " open, " << after.nonmanifold_edges
+                                  << " non-manifold edges, " << after.nonmanifold_vertices << " non-manifold vertices";
+  EXPECT_EQ(after.components, before.components) << what << ": a component collapsed away";
+  EXPECT_EQ(after.unreferenced_vertices, 0u) << what;
+  EXPECT_EQ(after.degenerate_triangles, 0u) << what;
+
+  // The kept vertices are the full mesh's, with their normals and attributes.
+  std::map<std::array<float, 3>, uint32_t> index;
+  for (uint32_t v = 0; v < full.mesh.vertices.size(); ++v)
+    index[{full.mesh.vertices[v].x, full.mesh.vertices[v].y, full.mesh.vertices[v].z}] = v;
+  EXPECT_EQ(simple.mesh.attributes.size(), full.mesh.attributes.size());
+  EXPECT_EQ(simple.mesh.normals.size(), simple.mesh.vertices.size());
+  for (uint32_t v = 0; v < simple.mesh.vertices.size(); ++v) {
+    const Vec3f x = simple.mesh.vertices[v];
+    const auto it = index.find({x.x, x.y, x.z});
+    if (it == index.end()) {
+      ADD_FAILURE() << what << ": a vertex moved";
+      return {};
+    }
+    EXPECT_TRUE(simple.mesh.normals[v] == full.mesh.normals[it->second]) << what;
+    for (std::size_t a = 0; a < simple.mesh.attributes.size(); ++a) {
+      const std::size_t k = std::size_t(simple.mesh.attributes[a].components);
+      for (std::size_t c = 0; c < k; ++c)
+        EXPECT_EQ(simple.mesh.attributes[a].values[v * k + c], full.mesh.attributes[a].values[it->second * k + c]) << what;
+    }
+  }
+
+  // The bound, both ways.
+  const float cell = float(0.25 * d);  // distances up to d/4 are measured; farther counts as infinite
+  const double error = std::max(farthest(full.mesh, simple.mesh, cell, 50000), farthest(simple.mesh, full.mesh, cell, 50000));
+  EXPECT_LE(error, limit) << what << ": " << error / d << " spacings";
+  return {double(simple.mesh.triangles.size()) / double(full.mesh.triangles.size()), error / d};
+}
+
+TEST(Decimate, RealFramesStayWithinTheBoundClosedAndWhole) {
+  const std::vector<std::pair<const char*, const char*>> frames = {
+      {"ply/dam_break_frame_23_24389_particles.ply", ""},
+      {"ply/double_dam_break_frame_26_4732_particles.ply", "velocity"},
+      {"ply/bunny_frame_14_7705_particles.ply", "velocity"}};
+  for (const auto& [frame, attribute] : frames) {
+    Params p;
+    if (*attribute) p.transfer = {attribute};
+    const Measured m = expect_decimated_within_bound(read_particles(test::data_file(frame)), p, 0.02, frame);
+    EXPECT_LT(m.kept, 0.8) << frame;
+    std::printf("%s: %.1f %% of the triangles kept, largest distance %.4f d\n", frame, 100 * m.kept, m.error);
+  }
+}
+
+// Flat water loses most of its triangles; the droplets keep theirs, every one of them.
+TEST(Decimate, FlatPoolLosesMostTrianglesAndEveryDropletStays) {
+  const ParticleSet ps = test::wide_splash(8000);
+  const Measured m = expect_decimated_within_bound(ps, Params{}, 0.02, "wide splash");
+  EXPECT_LT(m.kept, 0.6);
+}
+
+// A clip's cut stays exactly where it was: the open edges are the same.
+TEST(Decimate, KeepsAClipsCutAsItIs) {
+  const ParticleSet ps = read_particles(test::data_file("ply/dam_break_frame_9_6859_particles.ply"));
+  Params p;
+  p.backend = Backend::cpu;
+  p.clip_box = {-10, 0.05, -10, 10, 10, 10};
+  const Result cut = reconstruct(ps, p);
+  p.decimate = 0.05;
+  const Result simple = reconstruct(ps, p);
+  EXPECT_LT(simple.mesh.triangles.size(), cut.mesh.triangles.size());
+  const auto open = [](const TriangleMesh& mesh) {
+    std::map<std::pair<std::array<float, 3>, std::array<float, 3>>, int> uses;
+    for (const Triangle& t : mesh.triangles)
+      for (int k = 0; k < 3; ++k) {
+        const Vec3f a = mesh.vertices[t[std::size_t(k)]], b = mesh.vertices[t[std::size_t((k + 1) % 3)]];
+        std::array<float, 3> pa{a.x, a.y, a.z}, pb{b.x, b.y, b.z};
+        if (pb < pa) std::swap(pa, pb);
+        ++uses[{pa, pb}];
+      }
+    std::set<std::pair<std::array<float, 3>, std::array<float, 3>>> edges;
+    for (const auto& [e, n] : uses)
+      if (n == 1) edges.insert(e);
+    return edges;
+  };
+  const auto before = open(cut.mesh), after = open(simple.mesh);
+  EXPECT_GT(before.size(), 100u);
+  EXPECT_EQ(before, after);
+}
+
+TEST(Decimate, ZeroChangesNothingAndBadValuesAreRefused) {
+  const ParticleSet ps = test::lattice_block(6, 6, 6, 0.1f, 0.1f);
+  Params p;
+  p.backend = Backend::cpu;
+  const Result full = reconstruct(ps, p);
+  p.decimate = 0;
+  const Result same = reconstruct(ps, p);
+  EXPECT_EQ(same.mesh.triangles, full.mesh.triangles);
+  EXPECT_EQ(same.stats.decimated_triangles, 0u);
+  for (double bad : {-0.1, 1.5, double(NAN)}) {
+    p.decimate = bad;
+    EXPECT_THROW(reconstruct(ps, p), InvalidParameter) << bad;
+  }
+  std::string out;
+  EXPECT_NE(test::run_command(test::cli() + " surface " + test::data_file("ply/cube_2366_particles.ply") +
+                                  " -o /dev/null --decimate 2", &out),
+            0);
+  EXPECT_NE(out.find("--decimate"), std::string::npos) << out;
+}
+
+}  // namespace
+}  // namespace meniscus

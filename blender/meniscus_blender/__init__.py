@@ -433,6 +433,19 @@ class MeniscusSettings(bpy.types.PropertyGroup):
         name="Min Particles", min=0, default=0,
         description="Drop surface pieces enclosing fewer particles than this (strays, particles stuck in a wall); "
                     "0 keeps every droplet")
+    use_clip_box: bpy.props.BoolProperty(
+        name="Clip Box", default=False,
+        description="Cut the finished surface by a box: the tank's walls and floor go, the water's top stays")
+    clip_box_min: bpy.props.FloatVectorProperty(
+        name="Clip Min", size=3, default=(-1.0, -1.0, -1.0), unit="LENGTH", description="The clip box's lowest corner")
+    clip_box_max: bpy.props.FloatVectorProperty(
+        name="Clip Max", size=3, default=(1.0, 1.0, 1.0), unit="LENGTH", description="The clip box's highest corner")
+    clip_cap: bpy.props.BoolProperty(
+        name="Cap", default=False, description="Close the cut with the box's faces (the mesh stays watertight)")
+    decimate: bpy.props.FloatProperty(
+        name="Decimate", min=0.0, max=1.0, default=0.0, precision=3, step=1,
+        description="Simplify the mesh while it stays within this many particle spacings of the full one "
+                    "(0.02 is typical; 0 keeps every triangle)")
     spacing: bpy.props.FloatProperty(
         name="Spacing", min=0.0, default=0.0, unit="LENGTH", precision=4,
         description="Particle separation; 0 estimates it from the particles")
@@ -479,6 +492,12 @@ def params_from_settings(settings):
         params["min_particles"] = settings.min_particles
     if settings.use_particle_box:
         params["particle_box"] = [*settings.particle_box_min, *settings.particle_box_max]
+    if settings.use_clip_box:
+        params["clip_box"] = [*settings.clip_box_min, *settings.clip_box_max]
+        if settings.clip_cap:
+            params["clip_cap"] = True
+    if settings.decimate > 0:
+        params["decimate"] = settings.decimate
     if settings.spacing > 0:
         params["spacing"] = settings.spacing
     if settings.field != "distance":
@@ -594,6 +613,12 @@ class MENISCUS_PT_panel(bpy.types.Panel):
         if settings.use_particle_box:
             col.prop(settings, "particle_box_min")
             col.prop(settings, "particle_box_max")
+        col.prop(settings, "use_clip_box")
+        if settings.use_clip_box:
+            col.prop(settings, "clip_box_min")
+            col.prop(settings, "clip_box_max")
+            col.prop(settings, "clip_cap")
+        col.prop(settings, "decimate")
         col.prop(settings, "spacing")
         col = layout.column(align=True)
         col.prop(settings, "field")

@@ -122,6 +122,11 @@ def surface_point_mesh():
     settings.use_particle_box = True
     settings.particle_box_min = (-100.0, -100.0, -100.0)  # every particle of the frame inside
     settings.particle_box_max = (100.0, 100.0, 100.0)
+    settings.use_clip_box = True  # cuts the surface off the floor, capped: still watertight
+    settings.clip_box_min = (-100.0, -100.0, 0.05)
+    settings.clip_box_max = (100.0, 100.0, 100.0)
+    settings.clip_cap = True
+    settings.decimate = 0.02
     settings.transfer_velocity = True
     settings.transfer_color = True
     settings.result_name = ""
@@ -130,7 +135,9 @@ def surface_point_mesh():
     assert result.name == "dam break particles surface"
     counts = assert_watertight(result)
     params = addon.params_from_settings(settings)
-    assert sorted(params) == ["detail", "erode", "min_particles", "particle_box", "smoothness", "transfer"]
+    assert sorted(params) == ["clip_box", "clip_cap", "decimate", "detail", "erode", "min_particles", "particle_box",
+                              "smoothness", "transfer"]
+    assert params["clip_box"] == [-100.0, -100.0, 0.05, 100.0, 100.0, 100.0] and params["decimate"] == 0.02
     assert params["particle_box"] == [-100.0, -100.0, -100.0, 100.0, 100.0, 100.0]
     assert params["transfer"] == ["velocity", "color"]
     expected = reference_counts(positions, {"velocity": attributes["velocity"], "color": rgba[:, :3]}, params)

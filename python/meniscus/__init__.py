@@ -9,7 +9,8 @@
 
 The keyword parameters of :func:`reconstruct` are the CLI's options with ``_`` for ``-``
 (``spacing``, ``voxel_size``, ``r_inner``, ``r_outer``, ``extract``, ``steps_a``, ``steps_b``,
-``steps_free``, ``relax``, ``relax_b``, ``solver``, ``rebuild_b``, ``erode``, ``min_particles``, ``particle_box``, ``transfer``,
+``steps_free``, ``relax``, ``relax_b``, ``solver``, ``rebuild_b``, ``erode``, ``min_particles``, ``particle_box``,
+``clip_box``, ``clip_cap``, ``decimate``, ``transfer``,
 ``transfer_radius``, ``keep_voids``, ``threads``, ``max_memory_gb``) plus the artist controls
 ``preset``, ``smoothness`` and ``detail``; they go through the same code as ``--config`` files,
 so a name means the same everywhere.

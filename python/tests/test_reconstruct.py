@@ -220,3 +220,32 @@ def test_erode_moves_the_surface_inwards():
     assert np.array_equal(plain.triangles, eroded.triangles)
     shift = np.einsum("ij,ij->i", eroded.vertices - plain.vertices, plain.normals)
     assert np.median(shift) == pytest.approx(-0.02, abs=0.004)
+
+
+def test_clip_box_cuts_and_caps():
+    block = np.stack(np.meshgrid(*(np.arange(8) * 0.1,) * 3, indexing="ij"), -1).reshape(-1, 3).astype(np.float32)
+    box = (-1, -1, -1, 0.35, 1, 1)  # through the middle of the block along x
+    cut = meniscus.reconstruct(block, spacing=0.1, clip_box=box, threads=1)
+    assert cut.vertices[:, 0].max() <= np.float32(0.35) and cut.stats["cut_triangles"] > 0
+    edges = np.sort(np.concatenate([cut.triangles[:, [0, 1]], cut.triangles[:, [1, 2]], cut.triangles[:, [2, 0]]]), 1)
+    unique, uses = np.unique(edges, axis=0, return_counts=True)
+    open_edges = unique[uses == 1]
+    assert len(open_edges) > 0 and np.all(cut.vertices[open_edges.ravel(), 0] == np.float32(0.35))
+    capped = meniscus.reconstruct(block, spacing=0.1, clip_box=box, clip_cap=True, threads=1)
+    edges = np.sort(np.concatenate([capped.triangles[:, [0, 1]], capped.triangles[:, [1, 2]], capped.triangles[:, [2, 0]]]), 1)
+    assert np.all(np.unique(edges, axis=0, return_counts=True)[1] == 2) and capped.stats["cap_open_edges"] == 0
+    with pytest.raises(ValueError, match="clip_cap"):
+        meniscus.reconstruct(block, spacing=0.1, clip_cap=True)
+
+
+def test_decimate_keeps_fewer_triangles_of_the_same_vertices():
+    block = np.stack(np.meshgrid(*(np.arange(10) * 0.1,) * 3, indexing="ij"), -1).reshape(-1, 3).astype(np.float32)
+    full = meniscus.reconstruct(block, spacing=0.1, threads=1)
+    simple = meniscus.reconstruct(block, spacing=0.1, decimate=0.02, threads=1)
+    assert len(simple.triangles) < 0.5 * len(full.triangles)
+    assert simple.stats["decimated_triangles"] == len(full.triangles) - len(simple.triangles)
+    assert simple.stats["decimate_error"] <= 0.02 * 0.1
+    kept = {tuple(v) for v in full.vertices.tolist()}
+    assert all(tuple(v) in kept for v in simple.vertices.tolist())
+    with pytest.raises(ValueError, match="decimate"):
+        meniscus.reconstruct(block, spacing=0.1, decimate=3)

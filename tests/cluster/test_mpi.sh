@@ -123,4 +123,10 @@ grep -q "broken.ply" broken.out || { cat broken.out; fail "no message naming the
 [[ ! -e broken_mesh.ply ]] || fail "a mesh was written for a truncated file"
 if "${mpi[@]}" 2 "$meniscus" surface 'sim_####.ply' -o 'out_####.ply' > seq.out 2>&1; then fail "a sequence ran under mpirun"; fi
 grep -q "job array" seq.out || { cat seq.out; fail "no message for a sequence under mpirun"; }
+# The whole-mesh stages are refused up front, not run on pieces.
+if "${mpi[@]}" 2 "$meniscus" surface "$data/ply/dam_break_frame_9_6859_particles.ply" -o dec.ply --decimate 0.02 > dec.out 2>&1; then
+  fail "--decimate ran under mpirun"
+fi
+grep -q "not available over MPI ranks" dec.out || { cat dec.out; fail "no message for --decimate under mpirun"; }
+[[ ! -e dec.ply ]] || fail "a mesh was written for a refused --decimate"
 echo "total $(( ($(date +%s%N) - start) / 1000000 )) ms"

@@ -7,8 +7,11 @@
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
+#include <mutex>
 #include <vector>
 
 #include "mesh/compact.hpp"
@@ -90,36 +93,74 @@ bool single_fan(uint32_t v, const Incidence& around, const std::vector<Triangle>
   return seen == count;
 }
 
-/// The vertices of `after` (a simplification of the whole mesh `before`) where it breaks
-/// DecimateOutcome's contract, and the largest distance measured elsewhere.
-struct Verdict {
-  std::vector<uint32_t> violations;  ///< vertices of `before`, sorted, unique
-  double max_error = 0;
-};
-
 /// The share of the bound the check's points may use: they are points, the bound holds between
 /// surfaces, and the distance between two points of the triangles can exceed the distances at the
 /// points around them (by up to 17 % on the dam-break frame at 0.02 d with a check at 1).
 constexpr double kMargin = 0.8;
 
-Verdict check(const std::vector<Vec3f>& x, const std::vector<uint32_t>& root, const std::vector<Triangle>& before,
-              const std::vector<Triangle>& after, const std::vector<EdgeKey>& borders,
-              const std::vector<uint8_t>& fan_before, const TriangleBvh& full, double max_error) {
+/// One region of the mesh simplified on its own, in its own vertex numbering: the base mesh's
+/// triangles whose centroids fall in one cell of a grid. Its open edges (the cell's seams, and any
+/// border of the mesh) are locked, so the regions' results fit together as they are.
+struct Patch {
+  std::vector<uint32_t> global;     ///< local vertex → mesh vertex (sorted)
+  std::vector<Vec3f> x;             ///< positions, local
+  std::vector<uint32_t> root;       ///< component root (mesh vertex) per local vertex
+  std::vector<Triangle> input;      ///< the base triangles, local numbering
+  std::vector<uint8_t> interior;    ///< local vertices whose base triangles are all in the patch
+  std::vector<EdgeKey> borders;     ///< the input's open directed edges, sorted
+  std::vector<uint8_t> fan_before;  ///< local vertices whose input triangles form one fan
+  std::vector<Vec3f> gone;          ///< check points an earlier pass removed, nearest to this patch
+  std::vector<uint32_t> gone_near;  ///< per gone vertex: the input triangle it was nearest
+};
+
+/// The patch's interior vertices (by the base mesh's incidence counts), fans and open edges.
+void prepare(Patch& patch, const std::vector<uint32_t>& incident_count) {
+  const std::size_t n = patch.global.size();
+  const Incidence incidence(n, patch.input);
+  patch.interior.resize(n);
+  patch.fan_before.resize(n);
+  for (std::size_t v = 0; v < n; ++v) {
+    patch.interior[v] = incidence.first[v + 1] - incidence.first[v] == incident_count[patch.global[v]];
+    patch.fan_before[v] = single_fan(uint32_t(v), incidence, patch.input);
+  }
+  const std::vector<EdgeKey> edges = sorted_edges(patch.input);
+  for (const EdgeKey e : edges)
+    if (!contains(edges, reversed(e))) patch.borders.push_back(e);
+}
+
+/// The local vertices where `after` (a simplification of patch.input) breaks DecimateOutcome's
+/// contract, and the largest distance measured where it holds.
+struct Verdict {
+  std::vector<uint32_t> violations;  ///< sorted, unique
+  double max_error = 0;
+};
+
+Verdict check(const Patch& patch, const std::vector<Triangle>& after, const TriangleBvh& full, double max_error) {
+  const std::vector<Vec3f>& x = patch.x;
+  const std::vector<Triangle>& before = patch.input;
   const std::size_t nv = x.size();
   std::vector<std::atomic<uint8_t>> bad(nv), used(nv);
-  std::vector<std::atomic<uint32_t>> left(nv);  // simplified triangles per component root
+  std::vector<std::atomic<uint32_t>> left(nv);  // simplified triangles per component, at its first local vertex
+  std::vector<uint32_t> first_of(nv);           // each local vertex's component's first local vertex
+  {
+    std::vector<std::pair<uint32_t, uint32_t>> roots(nv);
+    for (uint32_t v = 0; v < nv; ++v) roots[v] = {patch.root[v], v};
+    std::sort(roots.begin(), roots.end());
+    for (std::size_t i = 0; i < nv; ++i)
+      first_of[roots[i].second] = (i > 0 && roots[i - 1].first == roots[i].first) ? first_of[roots[i - 1].second] : roots[i].second;
+  }
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, after.size(), 4096), [&](const auto& r) {
     for (std::size_t t = r.begin(); t != r.end(); ++t) {
-      left[root[after[t][0]]].fetch_add(1, std::memory_order_relaxed);
+      left[first_of[after[t][0]]].fetch_add(1, std::memory_order_relaxed);
       for (uint32_t v : after[t]) used[v].store(1, std::memory_order_relaxed);
     }
   });
-  // Closed and manifold: each directed edge once, with its reverse (or a locked border edge).
+  // Closed and manifold: each directed edge once, with its reverse (or an open edge of the input).
   const std::vector<EdgeKey> edges = sorted_edges(after);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, edges.size(), 4096), [&](const auto& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
       const EdgeKey e = edges[i];
-      if ((i + 1 < edges.size() && edges[i + 1] == e) || (!contains(edges, reversed(e)) && !contains(borders, e))) {
+      if ((i + 1 < edges.size() && edges[i + 1] == e) || (!contains(edges, reversed(e)) && !contains(patch.borders, e))) {
         bad[e >> 32].store(1, std::memory_order_relaxed);
         bad[uint32_t(e)].store(1, std::memory_order_relaxed);
       }
@@ -130,9 +171,10 @@ Verdict check(const std::vector<Vec3f>& x, const std::vector<uint32_t>& root, co
   const Incidence around(nv, after);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const auto& r) {
     for (std::size_t v = r.begin(); v != r.end(); ++v)
-      if (fan_before[v] && !single_fan(uint32_t(v), around, after)) bad[v].store(1, std::memory_order_relaxed);
+      if (patch.interior[v] && patch.fan_before[v] && !single_fan(uint32_t(v), around, after))
+        bad[v].store(1, std::memory_order_relaxed);
   });
-  // Nothing collapsed away (the whole component is a violation), and the distances both ways.
+  // Nothing collapsed away, and the distances both ways.
   const TriangleBvh simplified(x, after);
   const float reach = float(2 * max_error);
   std::atomic<double> worst{0.0};
@@ -148,7 +190,7 @@ Verdict check(const std::vector<Vec3f>& x, const std::vector<uint32_t>& root, co
     for (std::size_t t = r.begin(); t != r.end(); ++t) {
       bool changed = false;
       for (uint32_t v : before[t]) {
-        if (left[root[v]].load(std::memory_order_relaxed) == 0) bad[v].store(1, std::memory_order_relaxed);
+        if (left[first_of[v]].load(std::memory_order_relaxed) == 0) bad[v].store(1, std::memory_order_relaxed);
         if (used[v].load(std::memory_order_relaxed)) continue;
         // A vertex of several triangles is measured by each: the same distance, harmless.
         measure(v, simplified.closest(x[v], reach).distance);
@@ -159,6 +201,13 @@ Verdict check(const std::vector<Vec3f>& x, const std::vector<uint32_t>& root, co
         const float distance = simplified.closest(c, reach).distance;
         for (uint32_t v : before[t]) measure(v, distance);
       }
+    }
+  });
+  // The vertices an earlier pass removed, against the surface that replaces the one they measured.
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, patch.gone.size(), 1024), [&](const auto& r) {
+    for (std::size_t g = r.begin(); g != r.end(); ++g) {
+      const float distance = simplified.closest(patch.gone[g], reach).distance;
+      for (uint32_t v : before[patch.gone_near[g]]) measure(v, distance);
     }
   });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, after.size(), 1024), [&](const auto& r) {
@@ -177,6 +226,128 @@ Verdict check(const std::vector<Vec3f>& x, const std::vector<uint32_t>& root, co
   return verdict;
 }
 
+/// Simplifies one patch under the contract: meshopt at half the bound, then, where the check
+/// fails, the input triangles around the offending vertices set aside (the rest sees them as a
+/// locked border) and the rest simplified again, up to kRounds times; a patch that still fails
+/// keeps its input. Returns the triangles, local numbering.
+std::vector<Triangle> simplify_patch(const Patch& patch, const TriangleBvh& full, double max_error, DecimateOutcome& outcome,
+                                     std::mutex& lock) {
+  constexpr int kRounds = 8;
+  const Incidence incidence(patch.x.size(), patch.input);
+  const float scale = meshopt_simplifyScale(&patch.x[0].x, patch.x.size(), sizeof(Vec3f));
+  std::vector<uint8_t> kept(patch.input.size(), 0);
+  for (int round = 1;; ++round) {
+    std::vector<Triangle> rest, result;
+    for (std::size_t t = 0; t < patch.input.size(); ++t) (kept[t] ? result : rest).push_back(patch.input[t]);
+    const std::vector<Triangle> simplified = simplify(patch.x, rest, float(max_error / 2 / scale));
+    result.insert(result.end(), simplified.begin(), simplified.end());
+    const Verdict verdict = check(patch, result, full, max_error);
+    const bool done = verdict.violations.empty();
+    if (done || round == kRounds) {
+      const std::lock_guard<std::mutex> guard(lock);
+      outcome.rounds = std::max(outcome.rounds, round);
+      if (done) outcome.max_error = std::max(outcome.max_error, verdict.max_error);
+      return done ? result : patch.input;  // the input met the contract already
+    }
+    for (const uint32_t v : verdict.violations)
+      for (uint32_t k = incidence.first[v]; k < incidence.first[v + 1]; ++k) kept[incidence.triangles[k]] = 1;
+  }
+}
+
+/// A patch of `triangles` (mesh numbering) with its local vertices and component roots.
+Patch make_patch(const std::vector<Vec3f>& x, const std::vector<uint32_t>& root, std::vector<Triangle> triangles) {
+  Patch patch;
+  for (const Triangle& t : triangles)
+    for (uint32_t v : t) patch.global.push_back(v);
+  std::sort(patch.global.begin(), patch.global.end());
+  patch.global.erase(std::unique(patch.global.begin(), patch.global.end()), patch.global.end());
+  for (Triangle& t : triangles)
+    for (uint32_t& v : t) v = uint32_t(std::lower_bound(patch.global.begin(), patch.global.end(), v) - patch.global.begin());
+  patch.input = std::move(triangles);
+  for (const uint32_t v : patch.global) patch.x.push_back(x[v]), patch.root.push_back(root[v]);
+  return patch;
+}
+
+/// One pass: `base` (mesh numbering) cut into patches by a grid of side `side` shifted by
+/// `offset`, each simplified on its own, in parallel. `full` is the BVH of `full_triangles`.
+std::vector<Triangle> simplify_patches(const std::vector<Vec3f>& x, const std::vector<uint32_t>& root,
+                                       const std::vector<Triangle>& full_triangles, const std::vector<Triangle>& base,
+                                       const TriangleBvh& full, double side, double offset, double max_error,
+                                       DecimateOutcome& outcome) {
+  const std::size_t nv = x.size();
+  std::vector<uint32_t> incident(nv, 0);
+  for (const Triangle& t : base)
+    for (uint32_t v : t) ++incident[v];
+  // Each base triangle's cell; the patches in the cells' order (the result does not depend on
+  // the thread count).
+  std::vector<std::pair<std::array<int64_t, 3>, uint32_t>> cells(base.size());
+  tbb::parallel_for(std::size_t(0), base.size(), [&](std::size_t t) {
+    const Vec3f c = (x[base[t][0]] + x[base[t][1]] + x[base[t][2]]) * (1.0f / 3);
+    for (int a = 0; a < 3; ++a) cells[t].first[std::size_t(a)] = int64_t(std::floor((double(c[a]) + offset) / side));
+    cells[t].second = uint32_t(t);
+  });
+  tbb::parallel_sort(cells.begin(), cells.end());
+  std::vector<std::size_t> starts;
+  std::vector<uint32_t> patch_of(base.size()), position(base.size());  // base triangle → patch, and its index there
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    if (i == 0 || cells[i].first != cells[i - 1].first) starts.push_back(i);
+    patch_of[cells[i].second] = uint32_t(starts.size() - 1);
+    position[cells[i].second] = uint32_t(i - starts.back());
+  }
+  starts.push_back(cells.size());
+  std::vector<Patch> patches(starts.size() - 1);
+  tbb::parallel_for(std::size_t(0), patches.size(), [&](std::size_t p) {
+    std::vector<Triangle> triangles;
+    for (std::size_t i = starts[p]; i < starts[p + 1]; ++i) triangles.push_back(base[cells[i].second]);
+    patches[p] = make_patch(x, root, std::move(triangles));
+  });
+  // The vertices an earlier pass removed: each goes to the patch of the base triangle nearest it.
+  if (base.size() != full_triangles.size()) {
+    std::vector<uint8_t> seen(nv, 0);
+    for (const Triangle& t : base)
+      for (uint32_t v : t) seen[v] = 1;
+    // The check's points on the full mesh that base no longer has: its removed vertices and the
+    // middles of the full triangles base does not have.
+    const auto sorted = [](Triangle t) {
+      std::sort(t.begin(), t.end());
+      return t;
+    };
+    std::vector<Triangle> kept(base.size());
+    for (std::size_t t = 0; t < base.size(); ++t) kept[t] = sorted(base[t]);
+    tbb::parallel_sort(kept.begin(), kept.end());
+    std::vector<Vec3f> gone;
+    for (const Triangle& t : full_triangles) {
+      for (uint32_t v : t)
+        if (seen[v] == 0) seen[v] = 2, gone.push_back(x[v]);
+      if (!std::binary_search(kept.begin(), kept.end(), sorted(t))) gone.push_back((x[t[0]] + x[t[1]] + x[t[2]]) * (1.0f / 3));
+    }
+    const TriangleBvh nearest(x, base);
+    std::vector<uint32_t> near(gone.size());
+    tbb::parallel_for(std::size_t(0), gone.size(), [&](std::size_t g) {
+      near[g] = nearest.closest(gone[g], float(2 * max_error)).triangle;
+    });
+    for (std::size_t g = 0; g < gone.size(); ++g) {
+      if (near[g] == UINT32_MAX) continue;  // farther than the bound: the final check sees it
+      Patch& patch = patches[patch_of[near[g]]];
+      patch.gone.push_back(gone[g]);
+      patch.gone_near.push_back(position[near[g]]);
+    }
+  }
+  std::vector<std::vector<Triangle>> results(patches.size());
+  std::mutex lock;
+  tbb::parallel_for(std::size_t(0), patches.size(), [&](std::size_t p) {
+    Patch& patch = patches[p];
+    prepare(patch, incident);
+    std::vector<Triangle> local = simplify_patch(patch, full, max_error, outcome, lock);
+    for (Triangle& t : local)
+      for (uint32_t& v : t) v = patch.global[v];
+    results[p] = std::move(local);
+  });
+  std::vector<Triangle> out;
+  for (const std::vector<Triangle>& r : results) out.insert(out.end(), r.begin(), r.end());
+  return out;
+}
+
 }  // namespace
 
 DecimateOutcome decimate(TriangleMesh& mesh, double max_error) {
@@ -187,53 +358,39 @@ DecimateOutcome decimate(TriangleMesh& mesh, double max_error) {
   const std::vector<Triangle>& full_triangles = mesh.triangles;
   const std::vector<uint32_t> root = component_roots(x.size(), full_triangles);
   const TriangleBvh full(x, full_triangles);
-  const Incidence incidence(x.size(), full_triangles);
-  std::vector<uint8_t> fan_before(x.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 4096), [&](const auto& r) {
-    for (std::size_t v = r.begin(); v != r.end(); ++v) fan_before[v] = single_fan(uint32_t(v), incidence, full_triangles);
-  });
-  // The input's own open edges (a clip's cut) stay open edges of the result.
-  std::vector<EdgeKey> borders;
-  {
-    const std::vector<EdgeKey> edges = sorted_edges(full_triangles);
-    for (const EdgeKey e : edges)
-      if (!contains(edges, reversed(e))) borders.push_back(e);
-  }
-  // meshopt's error is relative to the mesh's extent and is an area-weighted mean of squared
-  // distances to the planes of the collapsed triangles, not a bound on the distance to the
-  // surface: it runs at half the bound, and where the measured distance still exceeds the bound
-  // the full triangles around the offending vertices are set aside — the rest sees them as a
-  // locked border — and the rest is simplified again, until nothing exceeds it. (Setting aside
-  // their rings too converges in fewer rounds but keeps more: 55 % of the dam-break frame's
-  // triangles at 0.02 d against 45 %.)
-  const float scale = meshopt_simplifyScale(&x[0].x, x.size(), sizeof(Vec3f));
-  std::vector<uint8_t> kept_full(full_triangles.size(), 0);
-  std::vector<Triangle> result;
-  constexpr int kRounds = 8;
-  for (int round = 0;; ++round) {
-    std::vector<Triangle> rest, set_aside;
-    for (std::size_t t = 0; t < full_triangles.size(); ++t) (kept_full[t] ? set_aside : rest).push_back(full_triangles[t]);
-    result = simplify(x, rest, float(max_error / 2 / scale));
-    result.insert(result.end(), set_aside.begin(), set_aside.end());
-    Verdict verdict = check(x, root, full_triangles, result, borders, fan_before, full, max_error);
-    outcome.max_error = verdict.max_error;
-    outcome.rounds = round + 1;
-    if (verdict.violations.empty()) break;
-    if (round + 1 == kRounds) {  // still not within the bound: those components stay whole
-      std::vector<uint8_t> whole(x.size(), 0);
-      for (const uint32_t v : verdict.violations) whole[root[v]] = 1;
-      std::vector<Triangle> kept;
-      for (const Triangle& t : result)
-        if (!whole[root[t[0]]]) kept.push_back(t);
-      for (const Triangle& t : full_triangles)
-        if (whole[root[t[0]]]) kept.push_back(t);
-      result.swap(kept);
-      for (std::size_t v = 0; v < x.size(); ++v) outcome.kept_whole += whole[v];
-      outcome.max_error = check(x, root, full_triangles, result, borders, fan_before, full, max_error).max_error;
-      break;
-    }
-    for (const uint32_t v : verdict.violations)
-      for (uint32_t k = incidence.first[v]; k < incidence.first[v + 1]; ++k) kept_full[incidence.triangles[k]] = 1;
+  // Patches of about kPatchTriangles triangles (a cell of side s holds about s²/ā of a roughly
+  // flat surface's triangles of mean area ā), in two passes: the second's grid is shifted by
+  // half a cell, so the first's seams (locked there) lie inside its patches.
+  constexpr double kPatchTriangles = 40000;
+  double area = 0;
+  for (const Triangle& t : full_triangles) area += double(length(cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]))) / 2;
+  const double side = std::max(std::sqrt(kPatchTriangles * area / double(full_triangles.size())), 1e-30);
+  std::vector<Triangle> result = full_triangles;
+  for (int pass = 0; pass < 2; ++pass)
+    result = simplify_patches(x, root, full_triangles, result, full, side, pass * side / 2, max_error, outcome);
+  // The whole result against the whole full mesh: what no patch could see (a fan pinched at a
+  // seam vertex, a component spread over patches collapsed away, a vertex of the first pass no
+  // second-pass patch measured). A component that fails gets its full triangles back.
+  Patch whole = make_patch(x, root, full_triangles);
+  std::vector<uint32_t> count(x.size(), 0);
+  for (const Triangle& t : full_triangles)
+    for (uint32_t v : t) ++count[v];
+  prepare(whole, count);
+  std::vector<Triangle> local = result;
+  for (Triangle& t : local)
+    for (uint32_t& v : t) v = uint32_t(std::lower_bound(whole.global.begin(), whole.global.end(), v) - whole.global.begin());
+  const Verdict verdict = check(whole, local, full, max_error);
+  outcome.max_error = verdict.max_error;
+  if (!verdict.violations.empty()) {
+    std::vector<uint8_t> restore(x.size(), 0);
+    for (const uint32_t v : verdict.violations) restore[whole.root[v]] = 1;
+    std::vector<Triangle> kept;
+    for (const Triangle& t : result)
+      if (!restore[root[t[0]]]) kept.push_back(t);
+    for (const Triangle& t : full_triangles)
+      if (restore[root[t[0]]]) kept.push_back(t);
+    result.swap(kept);
+    for (std::size_t v = 0; v < x.size(); ++v) outcome.kept_whole += restore[v];
   }
   mesh.triangles.swap(result);
   std::vector<uint8_t> used(x.size(), 0);

@@ -142,15 +142,19 @@ Measured expect_decimated_within_bound(const ParticleSet& ps, Params p, double b
 }
 
 TEST(Decimate, RealFramesStayWithinTheBoundClosedAndWhole) {
-  const std::vector<std::pair<const char*, const char*>> frames = {
-      {"ply/dam_break_frame_23_24389_particles.ply", ""},
-      {"ply/double_dam_break_frame_26_4732_particles.ply", "velocity"},
-      {"ply/bunny_frame_14_7705_particles.ply", "velocity"}};
-  for (const auto& [frame, attribute] : frames) {
+  struct Frame {
+    const char* file;
+    const char* attribute;
+    double most_kept;  ///< the share of the triangles kept, measured (README) with a little room
+  };
+  for (const Frame& f : {Frame{"ply/dam_break_frame_23_24389_particles.ply", "", 0.38},
+                         Frame{"ply/double_dam_break_frame_26_4732_particles.ply", "velocity", 0.25},
+                         Frame{"ply/bunny_frame_14_7705_particles.ply", "velocity", 0.46}}) {
+    const char* frame = f.file;
     Params p;
-    if (*attribute) p.transfer = {attribute};
+    if (*f.attribute) p.transfer = {f.attribute};
     const Measured m = expect_decimated_within_bound(read_particles(test::data_file(frame)), p, 0.02, frame);
-    EXPECT_LT(m.kept, 0.8) << frame;
+    EXPECT_LT(m.kept, f.most_kept) << frame;
     std::printf("%s: %.1f %% of the triangles kept, largest distance %.4f d\n", frame, 100 * m.kept, m.error);
   }
 }

@@ -299,7 +299,8 @@ Reduce mpi_reduce() {
 /// Every rank sends each rank the particles of its part within that rank's slab and halo; a
 /// rank's slab is what it receives, in rank order (the parts are consecutive ranges of the frame,
 /// so this is slab_particles() of the whole frame). Pairs of ranks exchange in K − 1 rounds.
-ParticleSet exchange_slabs(ParticleSet part, const Decomposition& d, int rank, int ranks) {
+/// `input` names the frame in errors.
+ParticleSet exchange_slabs(ParticleSet part, const Decomposition& d, int rank, int ranks, const std::string& input) {
   std::vector<ParticleSet> received(static_cast<std::size_t>(ranks));
   received[std::size_t(rank)] = slab_particles(part, d, rank);
   for (int round = 1; round < ranks; ++round) {
@@ -328,7 +329,7 @@ ParticleSet exchange_slabs(ParticleSet part, const Decomposition& d, int rank, i
     slab.positions.insert(slab.positions.end(), p.positions.begin(), p.positions.end());
     if (p.size() > 0) {
       if (p.attributes.size() != slab.attributes.size())
-        throw FormatError("", "", "the ranks' parts of the frame do not have the same attributes");
+        throw FormatError(input, "", "the ranks' parts of the frame do not have the same attributes");
       for (std::size_t a = 0; a < p.attributes.size(); ++a)
         slab.attributes[a].values.insert(slab.attributes[a].values.end(), p.attributes[a].values.begin(),
                                          p.attributes[a].values.end());
@@ -455,7 +456,7 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
   // from every rank's part (concatenated in rank order: the frame's order, as slab_particles keeps).
   ParticleSet slab;
   if (in_parts) {
-    error = attempt([&] { slab = exchange_slabs(std::move(all), d, rank, ranks); });
+    error = attempt([&] { slab = exchange_slabs(std::move(all), d, rank, ranks, job.input); });
     all = {};
   } else if (rank == 0) {
     for (int r = 1; r < ranks; ++r) send_bytes(pack(slab_particles(all, d, r)), r, kParticles);

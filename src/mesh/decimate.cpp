@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <mutex>
+#include <unordered_map>
 #include <vector>
 
 #include "mesh/compact.hpp"
@@ -135,7 +136,13 @@ struct Verdict {
   double max_error = 0;
 };
 
-Verdict check(const Patch& patch, const std::vector<Triangle>& after, const TriangleBvh& full, double max_error) {
+/// A triangle of fewer than 2²¹ vertices as one word (its corners in order: the same triangle).
+uint64_t triangle_key(const Triangle& t) { return uint64_t(t[0]) << 42 | uint64_t(t[1]) << 21 | t[2]; }
+
+/// `known` (or null): the new triangles' distances to the full surface from earlier rounds, by
+/// triangle_key, added to.
+Verdict check(const Patch& patch, const std::vector<Triangle>& after, const TriangleBvh& full, double max_error,
+              std::unordered_map<uint64_t, float>* known = nullptr) {
   const std::vector<Vec3f>& x = patch.x;
   const std::vector<Triangle>& before = patch.input;
   const std::size_t nv = x.size();
@@ -210,15 +217,27 @@ Verdict check(const Patch& patch, const std::vector<Triangle>& after, const Tria
       for (uint32_t v : before[patch.gone_near[g]]) measure(v, distance);
     }
   });
+  // A new triangle's distance to the full surface is its own: the rounds before may know it.
+  std::vector<float> far(after.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, after.size(), 1024), [&](const auto& r) {
     for (std::size_t t = r.begin(); t != r.end(); ++t) {
+      if (known) {
+        const auto it = known->find(triangle_key(after[t]));
+        if (it != known->end()) {
+          far[t] = it->second;
+          continue;
+        }
+      }
       const Vec3f a = x[after[t][0]], b = x[after[t][1]], c = x[after[t][2]], m = (a + b + c) * (1.0f / 3);
-      float far = 0;
+      far[t] = 0;
       for (const Vec3f p : {m, (a + b) * 0.5f, (b + c) * 0.5f, (c + a) * 0.5f, (a + m) * 0.5f, (b + m) * 0.5f, (c + m) * 0.5f})
-        far = std::max(far, full.closest(p, reach).distance);
-      for (uint32_t v : after[t]) measure(v, far);
+        far[t] = std::max(far[t], full.closest(p, reach).distance);
     }
   });
+  for (std::size_t t = 0; t < after.size(); ++t) {
+    for (uint32_t v : after[t]) measure(v, far[t]);
+    if (known) known->emplace(triangle_key(after[t]), far[t]);
+  }
   Verdict verdict;
   for (std::size_t v = 0; v < nv; ++v)
     if (bad[v].load(std::memory_order_relaxed)) verdict.violations.push_back(uint32_t(v));
@@ -236,12 +255,14 @@ std::vector<Triangle> simplify_patch(const Patch& patch, const TriangleBvh& full
   const Incidence incidence(patch.x.size(), patch.input);
   const float scale = meshopt_simplifyScale(&patch.x[0].x, patch.x.size(), sizeof(Vec3f));
   std::vector<uint8_t> kept(patch.input.size(), 0);
+  std::unordered_map<uint64_t, float> known;
+  const bool memo = patch.x.size() < (std::size_t(1) << 21);
   for (int round = 1;; ++round) {
     std::vector<Triangle> rest, result;
     for (std::size_t t = 0; t < patch.input.size(); ++t) (kept[t] ? result : rest).push_back(patch.input[t]);
     const std::vector<Triangle> simplified = simplify(patch.x, rest, float(max_error / 2 / scale));
     result.insert(result.end(), simplified.begin(), simplified.end());
-    const Verdict verdict = check(patch, result, full, max_error);
+    const Verdict verdict = check(patch, result, full, max_error, memo ? &known : nullptr);
     const bool done = verdict.violations.empty();
     if (done || round == kRounds) {
       const std::lock_guard<std::mutex> guard(lock);

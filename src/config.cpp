@@ -289,6 +289,7 @@ void set_param(Params& params, std::string_view key, const json& value) {
   // Judge the value on its own: a default Params holding only it. Cross-parameter checks
   // (r_inner < r_outer) are left to the caller's final validate(), since keys come in any order.
   Params probe;
+  if (canonical(key) == "clip_cap") probe.clip_box = {0, 0, 0, 1, 1, 1};  // needs a box: checked at the end
   k.set(probe, key, value);
   try {
     probe.validate();

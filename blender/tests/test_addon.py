@@ -137,7 +137,9 @@ def surface_point_mesh():
     params = addon.params_from_settings(settings)
     assert sorted(params) == ["clip_box", "clip_cap", "decimate", "detail", "erode", "min_particles", "particle_box",
                               "smoothness", "transfer"]
-    assert params["clip_box"] == [-100.0, -100.0, 0.05, 100.0, 100.0, 100.0] and params["decimate"] == 0.02
+    # Blender keeps float properties as float32.
+    assert np.allclose(params["clip_box"], [-100.0, -100.0, 0.05, 100.0, 100.0, 100.0]) and params["clip_cap"]
+    assert abs(params["decimate"] - 0.02) < 1e-7
     assert params["particle_box"] == [-100.0, -100.0, -100.0, 100.0, 100.0, 100.0]
     assert params["transfer"] == ["velocity", "color"]
     expected = reference_counts(positions, {"velocity": attributes["velocity"], "color": rgba[:, :3]}, params)

@@ -136,6 +136,20 @@ TEST(Config, DashesAndUnderscoresAreInterchangeable) {
   EXPECT_NE(refusal(json::parse(R"({"steps-a": 3, "steps_a": 4})")).find("twice"), std::string::npos);
 }
 
+// The clip and decimation keys, in either order (clip_cap needs clip_box, whichever comes first).
+TEST(Config, ClipAndDecimateKeys) {
+  for (const char* text : {R"({"clip_cap": true, "clip_box": "0,0,0,1,2,3", "decimate": 0.02})",
+                           R"({"clip_box": [0, 0, 0, 1, 2, 3], "clip-cap": true, "decimate": 0.02})"}) {
+    const Params p = params_from_json(json::parse(text));
+    EXPECT_EQ(p.clip_box, (std::vector<double>{0, 0, 0, 1, 2, 3})) << text;
+    EXPECT_TRUE(p.clip_cap) << text;
+    EXPECT_DOUBLE_EQ(p.decimate, 0.02) << text;
+  }
+  EXPECT_NE(refusal(json::parse(R"({"clip_cap": true})")).find("clip_box"), std::string::npos);
+  EXPECT_NE(refusal(json::parse(R"({"decimate": 2})")).find("decimate"), std::string::npos);
+  EXPECT_NE(refusal(json::parse(R"({"clip_box": [1, 0, 0, 0, 1, 1]})")).find("xmin"), std::string::npos);
+}
+
 TEST(Config, UnknownKeysAreNamedWithTheClosestKnownKey) {
   const std::string m = refusal(json::parse(R"({"steps_a": 3, "stepsb": 2})"));
   EXPECT_NE(m.find("'stepsb'"), std::string::npos) << m;

@@ -358,9 +358,10 @@ double local_reach(const Params& p) {
   const AnisotropyConstants& k = pass.constants;
   // What an extracted vertex's position reads: the two samples of its lattice edge (within one
   // edge of it), each the particles within r_outer or the kernels' support (anisotropic: R·σ̃₁ ≤
-  // R·k_max, each ellipsoid from its particle's neighbours within 2R), the centres smoothed over 2d.
+  // R·k_max, or the outer constraint shells, r_outer·σ̃₁ ≤ r_outer·k_r^(2/3), each ellipsoid from
+  // its particle's neighbours within 2R), the centres smoothed over 2d.
   double field = p.field == FieldMethod::distance ? p.r_outer : p.kernel_radius * (anisotropic ? k.k_max : 1.0);
-  if (anisotropic) field += pass.pca_radius;
+  if (anisotropic) field = std::max(field, p.r_outer * std::cbrt(double(k.k_r) * k.k_r)) + pass.pca_radius;
   if (pass.run) field += pass.smooth_radius;
   field += 2 * edge;
   // What a projection reads: the (metric-)nearest particle, within r_outer (an ellipsoid's
@@ -511,14 +512,18 @@ class CpuPipeline {
 
  private:
   /// Kernel centres: the particles, Laplacian-smoothed when asked (Yu & Turk §5), and the
-  /// anisotropic ellipsoids; the constraints use the centres too.
+  /// anisotropic ellipsoids, each centre held close enough to keep its particle inside its shell;
+  /// the constraints use the centres too.
   void particle_frames() {
     const ParticlePass& pass = plan_.particles;
     if (!pass.run) return;
     centres_ = timer_.run("particles", [&] {
       const HashGrid raw(particles_.positions, pass.raw_cell);
       if (pass.anisotropic) ellipsoids_ = yu_turk_ellipsoids(raw, pass.pca_radius, pass.constants);
-      return pass.lambda > 0 ? smooth_positions(raw, pass.smooth_radius, pass.lambda) : particles_.positions;
+      if (!(pass.lambda > 0)) return particles_.positions;
+      std::vector<Vec3f> centres = smooth_positions(raw, pass.smooth_radius, pass.lambda);
+      if (pass.anisotropic) hold_particles_in_shells(particles_.positions, ellipsoids_, pass.centre_reach, centres);
+      return centres;
     });
   }
 
@@ -527,6 +532,13 @@ class CpuPipeline {
         centres_.empty() ? std::span<const Vec3f>(particles_.positions) : std::span<const Vec3f>(centres_);
     grid_ = timer_.run("grid", [&] { return HashGrid(positions, plan_.grid_cell); });
     sorted_ellipsoids_ = to_sorted_order(*grid_, ellipsoids_);
+    if (plan_.ellipsoid_shells) {  // the constraint shells, which the field's inside includes too
+      shells_.resize(sorted_ellipsoids_.size());
+      for (std::size_t i = 0; i < shells_.size(); ++i) {
+        shells_[i] = unit_volume_shell(sorted_ellipsoids_[i]);
+        shell_axis_ = std::max(shell_axis_, shells_[i].max_axis);
+      }
+    }
   }
 
   void field_and_extract() {
@@ -551,6 +563,8 @@ class CpuPipeline {
       const std::vector<float> sorted_volumes = to_sorted_order(*grid_, volumes_);
       in.volumes = sorted_volumes;
       in.ellipsoids = sorted_ellipsoids_;
+      in.shells = shells_;
+      in.shell_radius = plan_.r_outer;
       const SparseField field = timer_.run("field", [&] {
         const float band = kernel_support(in) + float(p_.voxel_size);
         return kernel_field(in, plan_.lattice, checked_band_blocks(*grid_, plan_.lattice, band, max_bytes, p_, stats_.max_memory_from));
@@ -594,13 +608,7 @@ class CpuPipeline {
       if (plan_.transfer.empty()) grid_->release_order();
       const auto tick = [&](double f) { if (progress_) progress_("smooth", f); };
       if (plan_.ellipsoid_shells) {
-        std::vector<Ellipsoid> shells(sorted_ellipsoids_.size());
-        float max_axis = 0;
-        for (std::size_t i = 0; i < shells.size(); ++i) {
-          shells[i] = unit_volume_shell(sorted_ellipsoids_[i]);
-          max_axis = std::max(max_axis, shells[i].max_axis);
-        }
-        const EllipsoidConstraint constraint{&*grid_, shells, plan_.r_inner, plan_.r_outer, max_axis};
+        const EllipsoidConstraint constraint{&*grid_, shells_, plan_.r_inner, plan_.r_outer, shell_axis_};
         stats_.smoothing = smooth_surface(mesh_.vertices, mesh_.triangles, &constraint, o, tick);
       } else {
         const ShellConstraint constraint{&*grid_, plan_.r_inner, plan_.r_outer};
@@ -629,6 +637,8 @@ class CpuPipeline {
   HeapReuseScope reuse_;  // up to the smoothing, where the CLI asks for it (meniscus/memory.hpp)
   std::vector<Vec3f> centres_;
   std::vector<Ellipsoid> ellipsoids_, sorted_ellipsoids_;  // original order; the grid's
+  std::vector<Ellipsoid> shells_;                         // the constraint shells, the grid's order
+  float shell_axis_ = 0;                                  // their longest axis
   std::optional<HashGrid> grid_;
 };
 

@@ -57,11 +57,16 @@ __global__ void max_axis_kernel(const Ellipsoid* e, uint64_t n, int* out) {
 }
 
 __global__ void frames_kernel(GridView g, const uint32_t* order, uint64_t n, float pca_radius, AnisotropyConstants k,
-                              float smooth_radius, float lambda, Vec3f* centres, Ellipsoid* ellipsoids) {
+                              float smooth_radius, float lambda, float centre_reach, Vec3f* centres,
+                              Ellipsoid* ellipsoids) {
   MENISCUS_GRID_STRIDE(i, n) {
     const uint32_t o = order[i];
     if (ellipsoids != nullptr) ellipsoids[o] = particle_ellipsoid(g, uint32_t(i), pca_radius, k);
-    if (centres != nullptr) centres[o] = lambda > 0 ? smoothed_position(g, uint32_t(i), smooth_radius, lambda) : g.point(uint32_t(i));
+    if (centres != nullptr) {
+      const Vec3f p = g.point(uint32_t(i));
+      const Vec3f c = lambda > 0 ? smoothed_position(g, uint32_t(i), smooth_radius, lambda) : p;
+      centres[o] = ellipsoids != nullptr && lambda > 0 ? centre_holding_particle(p, c, ellipsoids[o], centre_reach) : c;
+    }
   }
 }
 
@@ -111,12 +116,13 @@ float max_ellipsoid_axis(const DeviceBuffer<Ellipsoid>& ellipsoids, uint32_t cou
 }
 
 void particle_frames(const DeviceGrid& raw, float pca_radius, const AnisotropyConstants& k, float smooth_radius,
-                     float lambda, DeviceBuffer<Vec3f>* centres, DeviceBuffer<Ellipsoid>* ellipsoids) {
+                     float lambda, DeviceBuffer<Vec3f>* centres, DeviceBuffer<Ellipsoid>* ellipsoids,
+                     float centre_reach) {
   if (centres != nullptr) centres->resize(raw.count);
   if (ellipsoids != nullptr) ellipsoids->resize(raw.count);
   if (raw.count == 0) return;
   MENISCUS_LAUNCH(frames_kernel, blocks_for(raw.count, 128), 128)(raw.view(), raw.order.data(), raw.count, pca_radius, k,
-                                                     smooth_radius, lambda,
+                                                     smooth_radius, lambda, centre_reach,
                                                      centres != nullptr ? centres->data() : nullptr,
                                                      ellipsoids != nullptr ? ellipsoids->data() : nullptr);
   MENISCUS_CUDA_CHECK_LAUNCH();

@@ -153,7 +153,8 @@ class DevicePipeline {
           ::meniscus::cuda::build_grid(points_, n, pass.raw_cell, grid_cell_of(lo_, pass.raw_cell), grid_cell_of(hi_, pass.raw_cell));
       DeviceBuffer<Vec3f> centres;
       ::meniscus::cuda::particle_frames(raw, pass.pca_radius, pass.constants, pass.smooth_radius, pass.lambda,
-                                        pass.lambda > 0 ? &centres : nullptr, pass.anisotropic ? &ellipsoids_ : nullptr);
+                                        pass.lambda > 0 ? &centres : nullptr, pass.anisotropic ? &ellipsoids_ : nullptr,
+                                        pass.centre_reach);
       if (pass.lambda > 0) {
         points_ = std::move(centres);
         point_bounds(points_, n, &lo_, &hi_);  // within the particles' bounds up to rounding
@@ -167,6 +168,10 @@ class DevicePipeline {
       DeviceGrid g = ::meniscus::cuda::build_grid(points_, uint32_t(particles_.size()), cell, grid_cell_of(lo_, cell),
                                                   grid_cell_of(hi_, cell));
       if (plan_.particles.anisotropic) ellipsoids_ = to_sorted_order(g, ellipsoids_);
+      if (plan_.ellipsoid_shells) {  // the constraint shells, which the field's inside includes too
+        shells_ = unit_volume_shells(ellipsoids_);
+        shell_axis_ = max_ellipsoid_axis(shells_, uint32_t(particles_.size()));
+      }
       if (!volumes_.empty()) volumes_device_ = to_sorted_order(g, volumes_device_);
       return g;
     });
@@ -181,9 +186,12 @@ class DevicePipeline {
     k.volumes = volumes_device_.size() > 0 ? volumes_device_.data() : nullptr;
     k.uniform_volume = float(d * d * d);
     k.ellipsoids = plan_.particles.anisotropic ? ellipsoids_.data() : nullptr;
+    k.shells = plan_.ellipsoid_shells ? shells_.data() : nullptr;
+    k.shell_radius = plan_.r_outer;
     const float support = kernel_field_support(
         plan_.field, k.radius,
-        plan_.particles.anisotropic ? max_ellipsoid_axis(ellipsoids_, uint32_t(particles_.size())) : 0.0f);
+        plan_.particles.anisotropic ? max_ellipsoid_axis(ellipsoids_, uint32_t(particles_.size())) : 0.0f,
+        plan_.ellipsoid_shells ? shell_reach(plan_.r_outer, shell_axis_) : 0.0f);
     const float band = plan_.kernel_field ? support + float(p_.voxel_size) : plan_.distance_band;
     const DeviceField field = timer_.run("field", [&] {
       std::size_t blocks = 0;
@@ -210,16 +218,14 @@ class DevicePipeline {
     timer_.run("smooth", [&] {
       SmoothSettings s;
       DeviceBuffer<float> weights;
-      DeviceBuffer<Ellipsoid> shells;
       if (plan_.velocity_weights && p_.velocity_reference > 0) {
         const DeviceBuffer<float> v = transfer_attribute(velocity_device_, 3, grid_, mesh_, plan_.transfer_radius);
         weights = velocity_weights(v, mesh_.vertex_count, float(p_.velocity_reference), float(p_.velocity_min_weight));
         s.vertex_relax = weights.data();
       }
       if (plan_.ellipsoid_shells) {
-        shells = unit_volume_shells(ellipsoids_);
-        s.shells = shells.data();
-        s.max_axis = max_ellipsoid_axis(shells, uint32_t(particles_.size()));
+        s.shells = shells_.data();
+        s.max_axis = shell_axis_;
       }
       static_cast<SmoothSchedule&>(s) = plan_.schedule;
       s.r_inner = plan_.r_inner;
@@ -269,6 +275,8 @@ class DevicePipeline {
   std::vector<DeviceBuffer<float>> attributes_, transferred_;
   DeviceBuffer<float> volumes_device_, velocity_device_;
   DeviceBuffer<Ellipsoid> ellipsoids_;  // original order, then the grid's
+  DeviceBuffer<Ellipsoid> shells_;      // the constraint shells, the grid's order
+  float shell_axis_ = 0;                // their longest axis
   DeviceGrid grid_;
   DeviceMesh mesh_;
   DeviceAdjacency adj_;

@@ -128,8 +128,9 @@ struct Constraint {
   const float* vertex_relax = nullptr;
 
   __device__ float factor(uint32_t i) const { return vertex_relax != nullptr ? vertex_relax[i] : 1.0f; }
-  __device__ Vec3f project(Vec3f x) const {
-    return shells != nullptr ? project_vertex_in_metric(grid, shells, x, r_inner, r_outer, max_axis)
+  /// x, moved from `from` (where the previous projection left the vertex) by the sweep.
+  __device__ Vec3f project(Vec3f x, Vec3f from) const {
+    return shells != nullptr ? project_vertex_in_metric(grid, shells, x, from, r_inner, r_outer, max_axis)
                              : project_vertex_on(grid, x, r_inner, r_outer);
   }
 };
@@ -141,7 +142,7 @@ __global__ void a_sweep_kernel(const uint32_t* offsets, const uint32_t* neighbor
     const uint32_t i = uint32_t(k);
     const Vec3f y = a_sweep_position(x[i], neighbour_mean_row(offsets, neighbors, x, i), other[i], relax, c.factor(i),
                                      weight);
-    other[i] = constrained ? c.project(y) : y;
+    other[i] = constrained ? c.project(y, x[i]) : y;
   }
 }
 
@@ -171,7 +172,7 @@ __global__ void b_sweep_kernel(const uint32_t* offsets, const uint32_t* neighbor
     float b_ii;
     const Vec3f bx = bilaplacian_row_and_diagonal(offsets, neighbors, w, diag[i], area, wx, i, &b_ii);
     const Vec3f moved = b_sweep_position(x[i], bx, b_ii, omega[i], c.factor(i));
-    x[i] = constrained ? c.project(moved) : moved;
+    x[i] = constrained ? c.project(moved, x[i]) : moved;
   }
 }
 

@@ -144,13 +144,15 @@ float max_ellipsoid_axis(const DeviceBuffer<Ellipsoid>& ellipsoids, uint32_t cou
 /// Yu & Turk over `raw`, a grid of the original particles (anisotropy.cpp): per particle, in the
 /// original order, the ellipsoid (when `ellipsoids` is non-null; neighbours within pca_radius)
 /// and the Laplacian-smoothed centre (when lambda > 0, else the particle; neighbours within
-/// smooth_radius).
+/// smooth_radius), with both: held within `centre_reach` of the particle in its shell's metric
+/// (centre_holding_particle; 0: as smoothed).
 void particle_frames(const DeviceGrid& raw, float pca_radius, const AnisotropyConstants& k, float smooth_radius,
-                     float lambda, DeviceBuffer<Vec3f>* centres, DeviceBuffer<Ellipsoid>* ellipsoids);
+                     float lambda, DeviceBuffer<Vec3f>* centres, DeviceBuffer<Ellipsoid>* ellipsoids,
+                     float centre_reach = 0);
 /// out[i] = values[order[i]]: per-particle data from the original order into the grid's.
 DeviceBuffer<float> to_sorted_order(const DeviceGrid& grid, const DeviceBuffer<float>& values);
 DeviceBuffer<Ellipsoid> to_sorted_order(const DeviceGrid& grid, const DeviceBuffer<Ellipsoid>& values);
-/// unit_volume_shell() of every ellipsoid (the smoothing's constraint shells).
+/// unit_volume_shell() of every ellipsoid (the constraint shells of the field and the smoothing).
 DeviceBuffer<Ellipsoid> unit_volume_shells(const DeviceBuffer<Ellipsoid>& ellipsoids);
 /// velocity_weight() of every vertex from its transferred velocity (3 floats a vertex).
 DeviceBuffer<float> velocity_weights(const DeviceBuffer<float>& velocity, std::size_t vertices, float reference,

@@ -26,4 +26,12 @@ std::vector<Ellipsoid> yu_turk_ellipsoids(const HashGrid& grid, float radius, co
   return out;
 }
 
+void hold_particles_in_shells(std::span<const Vec3f> particles, std::span<const Ellipsoid> ellipsoids, float reach,
+                              std::span<Vec3f> centres) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, centres.size(), 1024), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i)
+      centres[i] = centre_holding_particle(particles[i], centres[i], ellipsoids[i], reach);
+  });
+}
+
 }  // namespace meniscus

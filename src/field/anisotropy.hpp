@@ -22,4 +22,9 @@ std::vector<Vec3f> smooth_positions(const HashGrid& grid, float radius, float la
 /// the *original* order. Parallel over points.
 std::vector<Ellipsoid> yu_turk_ellipsoids(const HashGrid& grid, float radius, const AnisotropyConstants& constants);
 
+/// centre_holding_particle for every particle, in place: `particles`, `ellipsoids` and `centres`
+/// in the same (original) order. Parallel over particles.
+void hold_particles_in_shells(std::span<const Vec3f> particles, std::span<const Ellipsoid> ellipsoids, float reach,
+                              std::span<Vec3f> centres);
+
 }  // namespace meniscus

@@ -55,4 +55,15 @@ MENISCUS_HD Ellipsoid particle_ellipsoid(const Grid& g, uint32_t i, float radius
   return yu_turk_ellipsoid(cov, count - 1, k);  // the point itself is not a neighbour
 }
 
+/// The kernel centre of the particle at x, smoothed to `centre`, taken back along the line to x
+/// until x lies within `reach` of it in the metric of the particle's constraint shell (the unit
+/// volume shell of its ellipsoid `e`): the constrained smoothing keeps the surface outside every
+/// inner shell, which keeps the particle inside only while it lies inside its own
+/// (kCentreInShell). reach ≤ 0: the centre as smoothed.
+MENISCUS_HD inline Vec3f centre_holding_particle(Vec3f x, Vec3f centre, const Ellipsoid& e, float reach) {
+  if (!(reach > 0.0f)) return centre;
+  const float m = length(unit_volume_shell(e).metric * (x - centre));
+  return m > reach ? x + (centre - x) * (reach / m) : centre;
+}
+
 }  // namespace meniscus

@@ -11,10 +11,13 @@
 namespace meniscus {
 
 float kernel_support(const KernelFieldInput& in) {
-  float axis = 0;
-  if (in.method == FieldMethod::anisotropic)
+  float axis = 0, shell_axis = 0;
+  if (in.method == FieldMethod::anisotropic) {
     for (const Ellipsoid& e : in.ellipsoids) axis = std::max(axis, e.max_axis);
-  return kernel_field_support(in.method, in.kernel_radius, axis);
+    for (const Ellipsoid& e : in.shells) shell_axis = std::max(shell_axis, e.max_axis);
+  }
+  return kernel_field_support(in.method, in.kernel_radius, axis,
+                              in.shells.empty() ? 0.0f : shell_reach(in.shell_radius, shell_axis));
 }
 
 namespace {
@@ -64,6 +67,8 @@ KernelParticles kernel_particles(const KernelFieldInput& in) {
   k.volumes = in.volumes.empty() ? nullptr : in.volumes.data();
   k.uniform_volume = in.uniform_volume;
   k.ellipsoids = in.ellipsoids.empty() ? nullptr : in.ellipsoids.data();
+  k.shells = in.shells.empty() ? nullptr : in.shells.data();
+  k.shell_radius = in.shell_radius;
   return k;
 }
 

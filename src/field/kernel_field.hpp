@@ -25,10 +25,15 @@ struct KernelFieldInput {
   float uniform_volume = 1;
   /// Per sorted particle: the ellipsoid (anisotropic only).
   std::span<const Ellipsoid> ellipsoids;
+  /// Per sorted particle: the smoothing's constraint shell (anisotropic only; empty: none), and
+  /// their outer radius r_outer: the field's inside includes every outer shell.
+  std::span<const Ellipsoid> shells;
+  float shell_radius = 0;
 };
 
-/// The support of the kernels: R, or R·max σ̃₁ for anisotropic ones — band_blocks(…, support)
-/// lists every block where the field can differ from its background.
+/// The support of the kernels: R, or R·max σ̃₁ for anisotropic ones (or the outer shells' reach,
+/// r_outer·max σ̃₁ of the shells, where larger) — band_blocks(…, support) lists every block where
+/// the field can differ from its background.
 float kernel_support(const KernelFieldInput& in);
 /// The field's value in unallocated space: iso, or R − r̄ for zhu-bridson.
 float kernel_background(const KernelFieldInput& in);
@@ -40,7 +45,16 @@ KernelParticles kernel_particles(const KernelFieldInput& in);
 ///   sph:         iso − Σ V_i W_poly6(x − x_i, R)
 ///   zhu-bridson: |x − x̄(x)| − r̄, x̄ = Σ k_i x_i / Σ k_i, k_i = (1 − |x − x_i|²/R²)³ (r̄ = iso,
 ///                every particle the same radius); R − r̄ where no particle is within R
-///   anisotropic: iso − Σ V_i W(x − x_i, G_i)  (Yu & Turk, G_i = A_i / R)
+///   anisotropic: iso − Σ V_i W(x − x_i, G_i)  (Yu & Turk, G_i = A_i / R); with shells, where
+///                that is > 0 but x lies inside a particle's outer constraint shell,
+///                m = min_i |S_i(x − x_i)| < r_outer, the shell's value iso·(m/r_outer − 1) instead.
+///                The inside is then the kernels' level set united with the outer shells, which
+///                is what Williams' constrained smoothing needs to keep every particle inside: a
+///                surface that starts around every inner shell (the level set alone leaves out
+///                sparse particles, cuts the thin inner shells of surface particles, and makes
+///                one-particle sheets thinner than the lattice can sample, so they come out with
+///                holes). Where the level set already holds a sample, its value is the kernels',
+///                so the extracted surface follows the kernels wherever they enclose the shells.
 /// Background (unallocated space): iso, or R − r̄ for zhu-bridson; > 0, i.e. outside. Parallel
 /// over blocks, each block gathering the particles of the hash cells within the support.
 SparseField kernel_field(const KernelFieldInput& in, const SampleLattice& lattice, std::vector<uint64_t> block_keys);

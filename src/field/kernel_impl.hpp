@@ -62,6 +62,17 @@ struct AnisotropyConstants {
 /// ∫w r² dV / (3∫w dV) = 0.15 Rn².
 inline float yu_turk_bulk_variance(float Rn) { return 0.15f * Rn * Rn; }
 
+/// How far (in its constraint shell's metric, as a share of r_inner) the centre smoothing may take
+/// an anisotropic kernel centre from its particle (centre_holding_particle). The smoothing holds
+/// the surface outside every inner shell, which keeps a particle inside only if it lies inside
+/// its own; a surface particle's shell is thin along the normal (0.2–0.3 d at r_inner) and λ = 0.3
+/// pulls its centre up to 0.27 d inwards, which left particles at up to 1.2 r_inner from their
+/// centres, outside their shells, just outside the surface (dam break 23, double dam break 26).
+/// 0.75 leaves a quarter of the shell, 0.03–0.06 d along the normal, between a particle and the
+/// wall the surface rests on, more than the surface's triangles stray from it (at 1.0 one particle
+/// stayed outside on double dam break 26 and on the free particles; at 0.9 and 0.75 none).
+inline constexpr float kCentreInShell = 0.75f;
+
 /// Yu & Turk's pass over the raw particles (centre smoothing, ellipsoids) for resolved parameters
 /// `p`, as both backends run it: PCA over 2R (their 2h), centre smoothing over 2d, and a grid of
 /// the raw particles with cells large enough for either search.
@@ -70,6 +81,9 @@ struct ParticlePass {
   bool anisotropic = false;
   float lambda = 0;  ///< centre smoothing λ (0: the centres are the particles)
   float pca_radius = 0, smooth_radius = 0, raw_cell = 0;
+  /// Anisotropic: each centre within this distance of its particle in its shell's metric
+  /// (kCentreInShell · r_inner, centre_holding_particle); 0: no bound.
+  float centre_reach = 0;
   AnisotropyConstants constants;
 };
 
@@ -82,6 +96,7 @@ inline ParticlePass particle_pass(const Params& p) {
   s.smooth_radius = float(2 * p.spacing);
   s.raw_cell = float(std::max(2 * p.spacing, s.anisotropic ? double(s.pca_radius) : 0.0));
   s.constants.bulk_variance = yu_turk_bulk_variance(s.pca_radius);
+  s.centre_reach = s.anisotropic ? float(kCentreInShell * p.r_inner) : 0.0f;
   return s;
 }
 
@@ -180,12 +195,18 @@ struct KernelParticles {
   const float* volumes = nullptr;        ///< m/ρ (sph, anisotropic); null: uniform_volume
   float uniform_volume = 1;
   const Ellipsoid* ellipsoids = nullptr; ///< anisotropic only
+  /// Anisotropic only: the constraint shells (unit_volume_shell), whose outer shells
+  /// |S_i(x − x̄_i)| < shell_radius the field's inside includes (kernel_value); null: none.
+  const Ellipsoid* shells = nullptr;
+  float shell_radius = 0;                ///< r_outer
 };
 
-/// A sample's running sums: Σ (volume ×) kernel, and for zhu-bridson Σ k_i x_i.
+/// A sample's running sums: Σ (volume ×) kernel, for zhu-bridson Σ k_i x_i, and with shells the
+/// least squared shell distance |S_i(q − x̄_i)|² of the particles that reach the sample.
 struct KernelSum {
   float sum = 0;
   Vec3f weighted{0, 0, 0};
+  float shell2 = INFINITY;
 };
 
 /// The field's value where no kernel reaches (unallocated space): iso, or R − r̄ for zhu-bridson.
@@ -193,15 +214,26 @@ MENISCUS_HD inline float kernel_field_background(FieldMethod method, float radiu
   return method == FieldMethod::zhu_bridson ? radius - iso : iso;
 }
 
-/// The kernels' support: R, or R·max σ̃₁ over the particles for anisotropic ones.
-MENISCUS_HD inline float kernel_field_support(FieldMethod method, float radius, float max_axis) {
+/// How far an outer shell of radius r and longest axis σ̃₁ reaches: r·σ̃₁, with an allowance for
+/// the rounding of the shell distance (a sample the scatter skips must measure ≥ r).
+MENISCUS_HD inline float shell_reach(float r, float max_axis) { return r * max_axis * 1.0001f; }
+
+/// The kernels' support: R, or R·max σ̃₁ over the particles for anisotropic ones — or the outer
+/// shells' reach `shells` (shell_reach of the largest shell axis; 0: no shells) where larger.
+MENISCUS_HD inline float kernel_field_support(FieldMethod method, float radius, float max_axis, float shells = 0) {
   if (method != FieldMethod::anisotropic) return radius;
-  return radius * (max_axis < 1e-3f ? 1e-3f : max_axis);  // std::max(max_axis, 1e-3f)
+  const float kernels = radius * (max_axis < 1e-3f ? 1e-3f : max_axis);  // std::max(max_axis, 1e-3f)
+  return shells > kernels ? shells : kernels;
 }
 
-/// How far particle i reaches: R, or R·σ̃₁ for an anisotropic kernel.
+/// How far particle i reaches: R, or R·σ̃₁ for an anisotropic kernel (or its outer shell's reach,
+/// where larger).
 MENISCUS_HD inline float kernel_reach(const KernelParticles& k, uint32_t i) {
-  return k.method == FieldMethod::anisotropic ? k.radius * k.ellipsoids[i].max_axis : k.radius;
+  if (k.method != FieldMethod::anisotropic) return k.radius;
+  const float kernel = k.radius * k.ellipsoids[i].max_axis;
+  if (k.shells == nullptr) return kernel;
+  const float shell = shell_reach(k.shell_radius, k.shells[i].max_axis);
+  return shell > kernel ? shell : kernel;
 }
 
 /// Adds particle i (at p) to the sums of the sample at q.
@@ -216,14 +248,30 @@ MENISCUS_HD inline void kernel_add(const KernelParticles& k, uint32_t i, Vec3f p
       s.weighted += p * w;
       break;
     }
-    case FieldMethod::anisotropic: s.sum += v * anisotropic_kernel(k.ellipsoids[i], q - p, k.radius); break;
+    case FieldMethod::anisotropic: {
+      s.sum += v * anisotropic_kernel(k.ellipsoids[i], q - p, k.radius);  // + 0 beyond the kernel's support
+      if (k.shells != nullptr) {
+        const float m2 = length2(k.shells[i].metric * (q - p));
+        s.shell2 = m2 < s.shell2 ? m2 : s.shell2;  // a minimum: the same whatever the order
+      }
+      break;
+    }
     case FieldMethod::distance: break;
   }
 }
 
 /// The field's value at the sample q from its sums (kernel_field.hpp): iso − Σ, or for zhu-bridson
-/// min(|q − x̄| − r̄, background) with r̄ = iso (background where no particle reaches q).
+/// min(|q − x̄| − r̄, background) with r̄ = iso (background where no particle reaches q). With
+/// shells (anisotropic), a sample outside the kernels' level set but inside a particle's outer
+/// shell takes the shell's value iso·(m/r_outer − 1) < 0 (m = the least shell distance), so the
+/// inside is the union of the level set and the outer shells; elsewhere the value is the kernels'
+/// (kernel_field.hpp says why).
 MENISCUS_HD inline float kernel_value(const KernelParticles& k, const KernelSum& s, Vec3f q, float iso, float background) {
+  if (k.method == FieldMethod::anisotropic && k.shells != nullptr) {
+    const float kernels = iso - s.sum, r = k.shell_radius;
+    if (kernels > 0.0f && s.shell2 < r * r) return iso * (std::sqrt(s.shell2) / r - 1.0f);
+    return kernels;
+  }
   if (k.method != FieldMethod::zhu_bridson) return iso - s.sum;
   if (!(s.sum > 0)) return background;
   const float d = length(q - s.weighted / s.sum) - iso;

@@ -140,16 +140,17 @@ namespace {
 /// project_ellipsoid_with of constraint_impl.hpp for `c`, the metric-nearest particle from
 /// `nearest(y)` (the exact search or a vertex's EllipsoidCache list).
 template <class NearestFn>
-Vec3f project_ellipsoid_with(const EllipsoidConstraint& c, Vec3f x, NearestFn&& nearest, float* last_distance) {
+Vec3f project_ellipsoid_with(const EllipsoidConstraint& c, Vec3f x, Vec3f from, NearestFn&& nearest,
+                             float* last_distance) {
   return project_ellipsoid_with(
-      x, c.r_inner, c.r_outer, c.particles->points(), c.ellipsoids.data(), nearest,
+      x, from, c.r_inner, c.r_outer, c.particles->points(), c.ellipsoids.data(), nearest,
       [&](Vec3f y) { return nearest_in_metric(c, y); }, last_distance);
 }
 
 }  // namespace
 
-Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x) {
-  return project_vertex_in_metric(*c.particles, c.ellipsoids.data(), x, c.r_inner, c.r_outer, c.max_axis);
+Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x, Vec3f from) {
+  return project_vertex_in_metric(*c.particles, c.ellipsoids.data(), x, from, c.r_inner, c.r_outer, c.max_axis);
 }
 
 void EllipsoidCache::refresh(const EllipsoidConstraint& c, uint32_t i, Vec3f y) {
@@ -206,9 +207,9 @@ void EllipsoidCache::build(const EllipsoidConstraint& c, std::span<const Vec3f> 
   make_lists(x, [&](uint32_t i, Vec3f y) { refresh(c, i, y); });
 }
 
-Vec3f EllipsoidCache::project_moved(const EllipsoidConstraint& c, uint32_t i, Vec3f x) {
+Vec3f EllipsoidCache::project_moved(const EllipsoidConstraint& c, uint32_t i, Vec3f x, Vec3f from) {
   float last_distance = -1;
-  const Vec3f out = project_ellipsoid_with(c, x, [&](Vec3f y) { return nearest(c, i, y); }, &last_distance);
+  const Vec3f out = project_ellipsoid_with(c, x, from, [&](Vec3f y) { return nearest(c, i, y); }, &last_distance);
   set_slack(i, last_distance, c.r_inner, c.r_outer);  // out measured last_distance (−1: unknown)
   return out;
 }

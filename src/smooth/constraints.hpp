@@ -168,11 +168,13 @@ struct EllipsoidConstraint {
 /// can be smaller is within max_axis · distance of x in Euclidean terms).
 MetricNearest nearest_in_metric(const EllipsoidConstraint& c, Vec3f x);
 
-/// Projects one vertex onto the shell of its metric-nearest particle (project_to_ellipsoid_shell,
-/// along the metric radial direction), repeated while that makes another particle the nearest
-/// and violated; a ray search from the first particle settles the rare vertex squeezed between
-/// two shells. Thread-safe.
-Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x);
+/// Projects one vertex, moved to x from `from` (where its previous projection left it), onto the
+/// shell of its metric-nearest particle: back to where the move entered an inner shell it entered
+/// from outside (enter_ellipsoid), else along the metric radial direction
+/// (project_to_ellipsoid_shell); repeated while that makes another particle the nearest and
+/// violated; a ray search from the first particle settles the rare vertex squeezed between two
+/// shells (project_ellipsoid_with). Thread-safe.
+Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x, Vec3f from);
 
 /// NeighbourCache's counterpart for ellipsoid constraints. Each vertex keeps the (at most
 /// kCapacity) particles nearest to its anchor *in their own metrics*, sorted, with the metric
@@ -181,24 +183,24 @@ Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x);
 /// point y with |y − anchor| = m the list's best b is certified when b ≤ reach − L·m; a vertex
 /// whose last projection left it with slack s inside its shell (in metric units) needs no query
 /// at all while L·(its move) ≤ s. Otherwise the list is rebuilt at y, and nearest_in_metric
-/// answers if even that cannot certify. Gives exactly project_vertex(c, x); each vertex touches
+/// answers if even that cannot certify. Gives exactly project_vertex(c, x, from); each vertex touches
 /// only its own list (vertices may be projected in parallel, no vertex by two threads at once).
 /// Four particles a list: as fast as eight on an anisotropic splash, 16 bytes a vertex less; two
 /// made the A sweeps 8 % slower (the metric-nearest particle changes more often).
 class EllipsoidCache : public CachedParticleLists<4> {
  public:
   void build(const EllipsoidConstraint& c, std::span<const Vec3f> x);
-  /// As NeighbourCache::project (`from`: where the previous projection left the vertex; the
-  /// slack is in metric units).
+  /// As NeighbourCache::project (`from`: where the previous projection left the vertex, which the
+  /// projection also reads; the slack is in metric units): exactly project_vertex(c, x, from).
   Vec3f project(const EllipsoidConstraint& c, uint32_t i, Vec3f x, Vec3f from) {
     // The metric distance to the metric-nearest particle is L-Lipschitz: a vertex that moved m
     // with L·m ≤ slack from where its last projection left it is still inside its shell.
     if (still_inside(i, lipschitz_ * length(x - from))) return x;
-    return project_moved(c, i, x);
+    return project_moved(c, i, x, from);
   }
 
  private:
-  Vec3f project_moved(const EllipsoidConstraint& c, uint32_t i, Vec3f x);
+  Vec3f project_moved(const EllipsoidConstraint& c, uint32_t i, Vec3f x, Vec3f from);
   void refresh(const EllipsoidConstraint& c, uint32_t i, Vec3f y);
   MetricNearest scan(const EllipsoidConstraint& c, uint32_t i, Vec3f y, float moved) const;
   MetricNearest nearest(const EllipsoidConstraint& c, uint32_t i, Vec3f y);

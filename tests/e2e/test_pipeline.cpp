@@ -92,17 +92,20 @@ TEST(Pipeline, BSweepsLowerTheEnergyFarFromTheOrigin) {
 
 // The same for the ellipsoid constraints of the anisotropic field (their tolerance, in each
 // particle's metric, allows the rounding scaled by the metric's stretch); before that tolerance,
-// the energy rose (1.36e4 -> 2.6e4).
+// the energy rose (1.36e4 -> 2.6e4). Far from the origin the sweeps must do what they do at it.
 TEST(Pipeline, BSweepsLowerTheEnergyFarFromTheOriginWithEllipsoidConstraints) {
   const float d = 0.01f;
-  const ParticleSet block = lattice_block(16, 16, 6, d, 0.1f, 4, Vec3f{30.0f, -20.0f, 12.0f});
   Params p = block_params(d);
   p.field = FieldMethod::anisotropic;
-  const Result r = reconstruct(block, p);
+  const Result r = reconstruct(lattice_block(16, 16, 6, d, 0.1f, 4, Vec3f{30.0f, -20.0f, 12.0f}), p);
+  const Result near = reconstruct(lattice_block(16, 16, 6, d, 0.1f, 4), p);
   EXPECT_TRUE(analyze_topology(r.mesh).watertight());
   const SmoothingStats& s = r.stats.smoothing;
   EXPECT_GT(s.energy_start, 0.0);
-  EXPECT_LT(s.energy_final, 0.6 * s.energy_start) << s.energy_start << " -> " << s.energy_final;
+  // Measured: 1751 -> 1225 (at the origin 1748 -> 1224). The energy the B sweeps start from is
+  // lower than without the outer shells in the field (4227 -> 1702).
+  EXPECT_LT(s.energy_final, 0.8 * s.energy_start) << s.energy_start << " -> " << s.energy_final;
+  EXPECT_LT(s.energy_final, 1.05 * near.stats.smoothing.energy_final);
 }
 
 TEST(Pipeline, SphereIsGenusZeroWithTheExpectedRadius) {

@@ -98,6 +98,31 @@ TEST(Constraint, ProjectionFarFromTheOriginMovesTheVertexOnlyToTheShell) {
   EXPECT_GT(checked, 20);
 }
 
+// A surface particle's inner shell is thin along the normal, and the accelerated sweeps can carry
+// a vertex resting on it past its centre. Projected out along the line from the centre, the vertex
+// would land on the far side, taking the surface across the particle; it must come back where its
+// move entered the shell. A vertex that was inside already goes out along the line from the centre.
+TEST(Constraint, VertexCarriedPastTheCentreOfAThinShellGoesBackWhereItEntered) {
+  const std::vector<Vec3f> particles{{0, 0, 0}};
+  const HashGrid grid(particles, 2.0f);
+  Ellipsoid flat;  // axes 2, 2, 1/4 (unit volume): thin along z
+  flat.metric = SymMat3{0.5f, 0, 0, 0.5f, 0, 4.0f};
+  flat.max_axis = 2;
+  flat.min_axis = 0.25f;
+  const std::vector<Ellipsoid> shells{flat};
+  const EllipsoidConstraint c{&grid, shells, 0.5f, 1.0f, 2.0f};
+  const Vec3f from{0.1f, 0, 0.2f};  // metric 0.80: in the shell, above the particle
+  const Vec3f x{0.1f, 0, -0.05f};   // metric 0.21: inside the inner shell, below the centre
+  const Vec3f y = project_vertex(c, x, from);
+  EXPECT_NEAR(length(flat.metric * y), 0.5f, 1e-5f);
+  EXPECT_GT(y.z, 0.0f) << "the vertex went out on the far side of the particle";
+  EXPECT_LT(length(cross(y - from, x - from)), 1e-6f);  // on its path
+  EXPECT_NEAR(y.z, 0.12437f, 1e-4f);  // where (0.1, 0, z) meets |A y| = 0.5: 16 z² = 0.25 − 0.0025
+  const Vec3f radial = project_vertex(c, x, x);  // no earlier position outside: from the centre
+  EXPECT_LT(radial.z, 0.0f);
+  EXPECT_NEAR(length(flat.metric * radial), 0.5f, 1e-5f);
+}
+
 /// `uniform` particles spread over the unit cube and 200 packed into a 0.1-wide cluster at its
 /// centre (where the caches' lists are truncated), drawn from `rng`.
 std::vector<Vec3f> cloud_with_cluster(std::mt19937& rng, int uniform) {
@@ -183,7 +208,7 @@ TEST(Constraint, EllipsoidCacheProjectsExactlyAsTheSearch) {
     const float size = sweep % 8 == 7 ? 0.3f : 0.002f * float(1 + sweep % 3);
     for (uint32_t i = 0; i < x.size(); ++i) {
       const Vec3f y = x[i] + Vec3f{g(rng), g(rng), g(rng)} * size;
-      const Vec3f expected = project_vertex(c, y);
+      const Vec3f expected = project_vertex(c, y, x[i]);
       x[i] = cache.project(c, i, y, x[i]);  // x[i]: where the previous projection left it
       ++compared;
       unmoved += expected == y;
@@ -207,8 +232,9 @@ TEST(Constraint, EllipsoidCacheProjectsExactlyAsTheSearch) {
   for (int step = 0; step < 60; ++step)
     for (uint32_t i = 0; i < walk.size(); ++i) {
       walk[i] += Vec3f{g(rng), g(rng), g(rng)} * 0.003f;
-      left[i] = walker.project(thin, i, walk[i], left[i]);
-      walk_mismatches += !(left[i] == project_vertex(thin, walk[i]));
+      const Vec3f from = left[i];
+      left[i] = walker.project(thin, i, walk[i], from);
+      walk_mismatches += !(left[i] == project_vertex(thin, walk[i], from));
     }
   EXPECT_EQ(walk_mismatches, 0u);
 }

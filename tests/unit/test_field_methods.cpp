@@ -8,6 +8,7 @@
 
 #include "extract/extract.hpp"
 #include "field/anisotropy.hpp"
+#include "field/anisotropy_impl.hpp"
 #include "field/distance_field.hpp"
 #include "field/eigen_sym3_impl.hpp"
 #include "field/kernel_field.hpp"
@@ -235,6 +236,11 @@ TEST(KernelField, PerSampleGatherMatchesTheScatterBitForBit) {
       in.volumes = volumes;
       in.uniform_volume = d * d * d;
       in.ellipsoids = ellipsoids;
+      std::vector<Ellipsoid> shells;  // anisotropic: the outer shells' part of the field too
+      if (m == FieldMethod::anisotropic)
+        for (const Ellipsoid& e : ellipsoids) shells.push_back(unit_volume_shell(e));
+      in.shells = shells;
+      in.shell_radius = d;
       const float support = kernel_support(in);
       const SparseField f = kernel_field(in, lattice, band_blocks(grid, lattice, support + d));
       const KernelParticles kp = kernel_particles(in);
@@ -258,6 +264,92 @@ TEST(KernelField, PerSampleGatherMatchesTheScatterBitForBit) {
     }
   EXPECT_GT(compared, 100000u);
   EXPECT_GT(inside, compared / 40);  // the comparison covers the inside, not just empty space
+}
+
+// A one-layer sheet (stretched 10 %): Yu & Turk's flattened kernels make a level set about 0.5 d
+// thick, which a lattice of d/2 samples with holes. With the particles' outer constraint shells
+// the inside is the level set united with the shells: every sample the kernels hold keeps their
+// value to the bit, every other sample inside a shell takes the shell's value, the rest the
+// kernels'; the surface is one closed sheet around every particle.
+TEST(KernelField, AnisotropicInsideIsTheLevelSetUnitedWithTheOuterShells) {
+  const float d = 0.1f, R = 2 * d;
+  const ParticleSet ps = test::lattice_block(12, 12, 1, 1.1f * d, 0.05f, 2);
+  const HashGrid grid(ps.positions, 2 * d);
+  AnisotropyConstants k;
+  k.bulk_variance = yu_turk_bulk_variance(2 * R);
+  const HashGrid pca(ps.positions, 2 * R);
+  const std::vector<Ellipsoid> original = yu_turk_ellipsoids(pca, 2 * R, k);
+  std::vector<Ellipsoid> ellipsoids(original.size()), shells(original.size());
+  for (std::size_t i = 0; i < ellipsoids.size(); ++i) {
+    ellipsoids[i] = original[grid.order()[i]];
+    shells[i] = unit_volume_shell(ellipsoids[i]);
+  }
+  SampleLattice lattice;
+  lattice.kind = SampleLattice::Kind::a15;
+  lattice.cell_size = d;
+  KernelFieldInput in;
+  in.centres = &grid;
+  in.method = FieldMethod::anisotropic;
+  in.kernel_radius = R;
+  in.iso = 0.5f;
+  in.uniform_volume = d * d * d;
+  in.ellipsoids = ellipsoids;
+  const KernelFieldInput kernels_only = in;
+  in.shells = shells;
+  in.shell_radius = d;  // r_outer
+  const std::vector<uint64_t> keys = band_blocks(grid, lattice, kernel_support(in) + d);
+  const SparseField united = kernel_field(in, lattice, keys), level_set = kernel_field(kernels_only, lattice, keys);
+  const auto points = grid.sorted_points();
+  const int n = lattice.block_cells(), spc = lattice.samples_per_cell();
+  std::size_t kept = 0, from_shells = 0;
+  for (std::size_t b = 0; b < united.block_count(); ++b) {
+    const Vec3i origin = united.block_origin(b);
+    for (int j = 0; j < kBlockSamples; ++j) {
+      const int cell = j / spc;
+      const Vec3f o = lattice.sample_offset(j % spc);
+      const float off[3] = {o.x, o.y, o.z};
+      const Vec3f q = kernel_sample_point({origin.x + cell % n, origin.y + (cell / n) % n, origin.z + cell / (n * n)}, off, d);
+      float m = INFINITY;
+      for (std::size_t i = 0; i < points.size(); ++i) m = std::min(m, length(shells[i].metric * (q - points[i])));
+      const float a = level_set.block_values(b)[std::size_t(j)], u = united.block_values(b)[std::size_t(j)];
+      if (a <= 0 || m >= d * 1.00001f) {
+        ASSERT_TRUE(test::same_bits(a, u)) << a << " " << u;
+        kept += a <= 0;
+      } else if (m < d * 0.99999f) {
+        ASSERT_NEAR(u, 0.5f * (m / d - 1), 1e-5f);
+        ++from_shells;
+      }
+    }
+  }
+  EXPECT_GT(kept, 500u);         // measured 911
+  EXPECT_GT(from_shells, 500u);  // 677: the shells do hold samples the level set leaves out
+  const TriangleMesh sheet = extract_surface(united, 0.0f, Extractor::tiles).mesh;
+  const TopologyReport t = analyze_topology(sheet);
+  EXPECT_TRUE(t.watertight());
+  EXPECT_EQ(t.components, 1u);
+  EXPECT_EQ(t.euler, 2);
+  EXPECT_EQ(points_outside(sheet, ps.positions), 0u);
+  // The level set alone: a sheet with a hole (χ = 0).
+  EXPECT_LT(analyze_topology(extract_surface(level_set, 0.0f, Extractor::tiles).mesh).euler, 2);
+}
+
+// A kernel centre that the Laplacian smoothing pulled farther from its particle than `reach` in
+// the metric of the particle's shell is taken back along the line to the particle, to `reach`.
+TEST(Kernels, CentreHoldingParticleKeepsTheParticleWithinReach) {
+  Ellipsoid flat;  // axes 2, 2, 1/4 (unit volume): thin along z
+  flat.metric = SymMat3{0.5f, 0, 0, 0.5f, 0, 4.0f};
+  flat.max_axis = 2;
+  flat.min_axis = 0.25f;
+  flat.det = 1;
+  const Vec3f x{1, 2, 3};
+  // Along the thin axis: 0.1 is metric 0.4, beyond reach 0.3: back to 0.075 from x.
+  const Vec3f pulled = centre_holding_particle(x, x + Vec3f{0, 0, -0.1f}, flat, 0.3f);
+  EXPECT_NEAR(pulled.z - x.z, -0.075f, 1e-6f);
+  EXPECT_EQ(pulled.x, x.x);
+  EXPECT_NEAR(length(flat.metric * (x - pulled)), 0.3f, 1e-6f);
+  // Along a long axis 0.1 is metric 0.05: within reach, untouched; reach 0: no bound.
+  EXPECT_EQ(centre_holding_particle(x, x + Vec3f{0.1f, 0, 0}, flat, 0.3f), (x + Vec3f{0.1f, 0, 0}));
+  EXPECT_EQ(centre_holding_particle(x, x + Vec3f{0, 0, -0.1f}, flat, 0.0f), (x + Vec3f{0, 0, -0.1f}));
 }
 
 TEST(EllipsoidConstraint, ProjectionOntoTheShellIsExactInTheMetric) {

@@ -20,6 +20,7 @@
 #include "meniscus/backend.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
+#include "meniscus/quality.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "support/io_helpers.hpp"
 #include "support/locality.hpp"
@@ -168,6 +169,36 @@ TEST(CudaParity, MinParticlesDropsTheSameStrays) {
   EXPECT_GT(cpu.stats.removed_strays, 0u);
   EXPECT_EQ(gpu.stats.removed_strays, cpu.stats.removed_strays);
   EXPECT_EQ(gpu.mesh.triangles.size(), cpu.mesh.triangles.size());
+}
+
+// --clip-box, --clip-cap and --decimate run on the finished mesh of either backend: both cut,
+// capped watertight and simplified within the bound, to nearly the same counts (the backends'
+// meshes agree to rounding, not bit for bit).
+TEST(CudaParity, ClipCapAndDecimateOnBothBackends) {
+  MENISCUS_REQUIRE_CUDA_DEVICE();
+  const ParticleSet ps = read_particles(test::data_file("ply/dam_break_frame_9_6859_particles.ply"));
+  Params p;
+  p.spacing = estimate_spacing(ps);
+  p.clip_box = {-1.5, 0.06, -0.5, -0.5, 1, 0.5};
+  p.clip_cap = true;
+  p.decimate = 0.02;
+  Result r[2];
+  for (int b = 0; b < 2; ++b) {
+    p.backend = b == 0 ? Backend::cpu : Backend::cuda;
+    r[b] = reconstruct(ps, p);
+    EXPECT_EQ(r[b].stats.backend, b == 0 ? "cpu" : "cuda");
+    EXPECT_TRUE(analyze_topology(r[b].mesh).watertight()) << to_string(p.backend);
+    EXPECT_EQ(r[b].stats.cap_open_edges, 0u);
+    EXPECT_GT(r[b].stats.cap_triangles, 100u);
+    EXPECT_GT(r[b].stats.decimated_triangles, 1000u);
+    EXPECT_LE(r[b].stats.decimate_error, 0.02 * p.spacing);
+    for (const Vec3f x : r[b].mesh.vertices) {
+      ASSERT_GE(x.y, float(0.06));
+      ASSERT_LE(x.x, float(-0.5));
+    }
+  }
+  const double ratio = double(r[1].mesh.triangles.size()) / double(r[0].mesh.triangles.size());
+  EXPECT_NEAR(ratio, 1.0, 0.03);
 }
 
 TEST(CudaParity, ParticleSmoothingAndVelocityWeighting) {

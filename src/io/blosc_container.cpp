@@ -33,7 +33,7 @@ constexpr uint64_t max_expansion = 256;
 
 // The writer's settings, Houdini's (see the top of the file). c-blosc turns the level into LZ4's
 // acceleration (10 − level), so 9 is LZ4's default, strongest setting.
-constexpr std::size_t chunk_size = std::size_t(1) << 20;
+constexpr std::size_t write_chunk_size = std::size_t(1) << 20;
 constexpr int compression_level = 9;
 constexpr std::size_t type_size = 4;
 
@@ -146,14 +146,14 @@ TriangleMesh read_bgeo_sc_mesh(const Source& source) {
   return read_bgeo_json_mesh(Source{plain, source.path, true});
 }
 
-BloscContainerWriter::BloscContainerWriter(std::string path) : path_(std::move(path)) { plain_.reserve(chunk_size); }
+BloscContainerWriter::BloscContainerWriter(std::string path) : path_(std::move(path)) { plain_.reserve(write_chunk_size); }
 
 void BloscContainerWriter::write(ByteView bytes) {
   while (!bytes.empty()) {
-    const std::size_t take = std::min(bytes.size(), chunk_size - plain_.size());
+    const std::size_t take = std::min(bytes.size(), write_chunk_size - plain_.size());
     plain_.insert(plain_.end(), bytes.begin(), bytes.begin() + std::ptrdiff_t(take));
     bytes = bytes.subspan(take);
-    if (plain_.size() == chunk_size) compress_chunk();
+    if (plain_.size() == write_chunk_size) compress_chunk();
   }
 }
 
@@ -181,7 +181,7 @@ void BloscContainerWriter::commit() {
   if (!plain_.empty() || chunk_ends_.empty()) compress_chunk();
   Bytes index;
   for (std::size_t i = 0; i + 1 < chunk_ends_.size(); ++i) put_be64(index, chunk_ends_[i]);  // starts of chunks 1 …
-  put_be64(index, chunk_size);
+  put_be64(index, write_chunk_size);
   put_be64(index, last_size_);
   put_be64(index, 8 * (chunk_ends_.size() - 1) + 16);
   for (const char c : std::string_view("1fcs")) index.push_back(static_cast<uint8_t>(c));

@@ -1,5 +1,7 @@
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "meniscus/errors.hpp"
 #include "meniscus/mesh.hpp"
 #include "meniscus/particles.hpp"
@@ -16,6 +18,25 @@ const Attribute* find_attribute(const std::vector<Attribute>& attributes, const 
 
 const Attribute* ParticleSet::find(const std::string& name) const { return find_attribute(attributes, name); }
 const Attribute* TriangleMesh::find(const std::string& name) const { return find_attribute(attributes, name); }
+
+std::size_t ParticleSet::keep_if(const std::function<bool(Vec3f)>& keep) {
+  const std::size_t n = positions.size();
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!keep(positions[i])) continue;
+    if (kept != i) {
+      positions[kept] = positions[i];
+      for (Attribute& a : attributes) {
+        const std::size_t c = std::size_t(a.components);
+        std::copy_n(a.values.begin() + std::ptrdiff_t(i * c), c, a.values.begin() + std::ptrdiff_t(kept * c));
+      }
+    }
+    ++kept;
+  }
+  positions.resize(kept);
+  for (Attribute& a : attributes) a.values.resize(kept * std::size_t(a.components));
+  return n - kept;
+}
 
 void ParticleSet::validate() const {
   for (const Attribute& a : attributes) {

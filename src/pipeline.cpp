@@ -647,21 +647,9 @@ class CpuPipeline {
 std::size_t keep_particles_in_box(ParticleSet& particles, const std::vector<double>& box) {
   if (box.empty()) return 0;
   if (box.size() != 6) throw InvalidParameter(fmt::format("particle_box: {} numbers given, expected 6", box.size()));
-  const std::size_t n = particles.size();
-  std::size_t kept = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const Vec3f x = particles.positions[i];
-    if (!(x.x >= box[0] && x.y >= box[1] && x.z >= box[2] && x.x <= box[3] && x.y <= box[4] && x.z <= box[5])) continue;
-    particles.positions[kept] = x;
-    for (Attribute& a : particles.attributes) {
-      const std::size_t c = std::size_t(a.components);
-      std::copy_n(a.values.begin() + std::ptrdiff_t(i * c), c, a.values.begin() + std::ptrdiff_t(kept * c));
-    }
-    ++kept;
-  }
-  particles.positions.resize(kept);
-  for (Attribute& a : particles.attributes) a.values.resize(kept * std::size_t(a.components));
-  return n - kept;
+  return particles.keep_if([&](Vec3f x) {
+    return x.x >= box[0] && x.y >= box[1] && x.z >= box[2] && x.x <= box[3] && x.y <= box[4] && x.z <= box[5];
+  });
 }
 
 namespace {

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,9 @@ struct ParticleSet {
   const Attribute* find(const std::string& name) const;
   /// Throws InvalidParameter if an attribute's length does not match the particle count.
   void validate() const;
+  /// Keeps the particles whose position satisfies `keep`, in order, with their attribute values
+  /// (in place); returns how many were dropped.
+  std::size_t keep_if(const std::function<bool(Vec3f)>& keep);
 };
 
 }  // namespace meniscus

@@ -155,19 +155,8 @@ void handle_invalid(ParticleSet& particles, const std::string& path, const ReadO
                                   "drops such particles)",
                                   p.x, p.y, p.z));
   }
-  std::size_t kept = first_bad;
-  for (std::size_t i = first_bad; i < n; ++i) {
-    if (!finite(particles.positions[i])) continue;
-    particles.positions[kept] = particles.positions[i];
-    for (Attribute& a : particles.attributes) {
-      const std::size_t c = std::size_t(a.components);
-      std::copy_n(a.values.begin() + std::ptrdiff_t(i * c), c, a.values.begin() + std::ptrdiff_t(kept * c));
-    }
-    ++kept;
-  }
-  particles.positions.resize(kept);
-  for (Attribute& a : particles.attributes) a.values.resize(kept * std::size_t(a.components));
-  if (report) report->dropped_invalid += n - kept;
+  const std::size_t dropped = particles.keep_if([](Vec3f x) { return finite(x); });
+  if (report) report->dropped_invalid += dropped;
 }
 
 }  // namespace

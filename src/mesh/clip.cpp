@@ -105,10 +105,7 @@ ClipOutcome clip_to_box(TriangleMesh& mesh, const ClipBox& box, bool cap) {
     cut(mesh, {axis, box[std::size_t(axis)], 1.0}, outcome);
     cut(mesh, {axis, box[std::size_t(axis) + 3], -1.0}, outcome);
   }
-  std::vector<uint8_t> used(mesh.vertices.size(), 0);
-  for (const Triangle& t : mesh.triangles)
-    for (uint32_t v : t) used[v] = 1;
-  detail::compact_vertices(mesh, used);
+  drop_unused_vertices(mesh);
   if (cap) {
     const TriangleBvh inside(uncut_vertices, uncut_triangles);
     cap_box_faces(mesh, box, inside, outcome);

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "mesh/clip.hpp"
+#include "mesh/directed_edges.hpp"
 
 namespace meniscus {
 
@@ -30,21 +31,6 @@ using FaceBase = CGAL::Constrained_triangulation_face_base_2<Kernel, CGAL::Trian
 using Cdt = CGAL::Constrained_Delaunay_triangulation_2<Kernel, CGAL::Triangulation_data_structure_2<VertexBase, FaceBase>,
                                                       CGAL::Exact_predicates_tag>;
 
-using EdgeKey = uint64_t;
-
-/// The directed edges no triangle runs the other way: the cut's curves.
-std::vector<std::pair<uint32_t, uint32_t>> open_edges(const std::vector<Triangle>& triangles) {
-  std::vector<EdgeKey> edges;
-  edges.reserve(3 * triangles.size());
-  for (const Triangle& t : triangles)
-    for (int k = 0; k < 3; ++k) edges.push_back(uint64_t(t[std::size_t(k)]) << 32 | t[std::size_t((k + 1) % 3)]);
-  std::sort(edges.begin(), edges.end());
-  std::vector<std::pair<uint32_t, uint32_t>> open;
-  for (const EdgeKey e : edges)
-    if (!std::binary_search(edges.begin(), edges.end(), e << 32 | e >> 32)) open.emplace_back(uint32_t(e >> 32), uint32_t(e));
-  return open;
-}
-
 /// Corner k of the box: bit c of k chooses the max of axis c.
 Vec3f corner(const ClipBox& box, uint32_t k) {
   return {box[(k & 1) ? 3 : 0], box[(k & 2) ? 4 : 1], box[(k & 4) ? 5 : 2]};
@@ -53,9 +39,10 @@ Vec3f corner(const ClipBox& box, uint32_t k) {
 }  // namespace
 
 void cap_box_faces(TriangleMesh& mesh, const ClipBox& box, const TriangleBvh& inside, ClipOutcome& outcome) {
-  const std::vector<std::pair<uint32_t, uint32_t>> open = open_edges(mesh.triangles);
+  // The cut's curves: the directed edges no triangle runs the other way.
+  const std::vector<EdgeKey> open = open_edges(sorted_directed_edges(mesh.triangles));
   std::vector<uint32_t> cut_vertices;
-  for (const auto& [p, q] : open) cut_vertices.push_back(p), cut_vertices.push_back(q);
+  for (const EdgeKey e : open) cut_vertices.push_back(edge_from(e)), cut_vertices.push_back(edge_to(e));
   std::sort(cut_vertices.begin(), cut_vertices.end());
   cut_vertices.erase(std::unique(cut_vertices.begin(), cut_vertices.end()), cut_vertices.end());
   uint32_t corner_vertex[8];
@@ -91,8 +78,9 @@ void cap_box_faces(TriangleMesh& mesh, const ClipBox& box, const TriangleBvh& in
       for (std::size_t k = 1; k < s.size(); ++k)
         if (s[k - 1].second != s[k].second) cdt.insert_constraint(s[k - 1].second, s[k].second);
     }
-    for (const auto& [p, q] : open)
-      if (on_face(p) && on_face(q)) cdt.insert_constraint(point(mesh.vertices[p]), point(mesh.vertices[q]));
+    for (const EdgeKey e : open)
+      if (on_face(edge_from(e)) && on_face(edge_to(e)))
+        cdt.insert_constraint(point(mesh.vertices[edge_from(e)]), point(mesh.vertices[edge_to(e)]));
 
     // Regions between the constraints; each is inside the uncut surface or not, as a whole.
     for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) f->info() = -1;
@@ -155,7 +143,7 @@ void cap_box_faces(TriangleMesh& mesh, const ClipBox& box, const TriangleBvh& in
       ++outcome.cap_triangles;
     }
   }
-  outcome.cap_defects = open_edges(mesh.triangles).size();
+  outcome.cap_defects = open_edges(sorted_directed_edges(mesh.triangles)).size();
 }
 
 }  // namespace meniscus

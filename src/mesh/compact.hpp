@@ -218,6 +218,15 @@ std::size_t keep_triangles(TriangleMesh& mesh, Keep&& keep) {
   return detail::compact_mesh(mesh, kept, used);
 }
 
+/// Drops the vertices no triangle uses (in order; normals and attributes follow) and renumbers
+/// the triangles' corners: after a stage that replaced the triangles (clip, decimate).
+inline void drop_unused_vertices(TriangleMesh& mesh) {
+  std::vector<uint8_t> used(mesh.vertices.size(), 0);
+  for (const Triangle& t : mesh.triangles)
+    for (uint32_t v : t) used[v] = 1;
+  detail::compact_vertices(mesh, used);
+}
+
 /// Removes the triangles `triangles` and the vertices `vertices` (both sorted, distinct, in range)
 /// where those vertices are exactly the ones no other triangle uses — whole connected components,
 /// say — and renumbers the kept triangles' corners; order, normals and attributes as in

@@ -17,28 +17,12 @@
 
 #include "mesh/compact.hpp"
 #include "mesh/components.hpp"
+#include "mesh/directed_edges.hpp"
 #include "mesh/triangle_bvh.hpp"
 
 namespace meniscus {
 
 namespace {
-
-using EdgeKey = uint64_t;
-EdgeKey directed(uint32_t a, uint32_t b) { return uint64_t(a) << 32 | b; }
-EdgeKey reversed(EdgeKey e) { return e << 32 | e >> 32; }
-
-/// The directed edges of `triangles`, sorted.
-std::vector<EdgeKey> sorted_edges(const std::vector<Triangle>& triangles) {
-  std::vector<EdgeKey> edges(3 * triangles.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles.size(), 4096), [&](const auto& r) {
-    for (std::size_t t = r.begin(); t != r.end(); ++t)
-      for (int k = 0; k < 3; ++k) edges[3 * t + std::size_t(k)] = directed(triangles[t][std::size_t(k)], triangles[t][std::size_t((k + 1) % 3)]);
-  });
-  tbb::parallel_sort(edges.begin(), edges.end());
-  return edges;
-}
-
-bool contains(const std::vector<EdgeKey>& sorted, EdgeKey e) { return std::binary_search(sorted.begin(), sorted.end(), e); }
 
 /// meshopt_simplify over `triangles` (the mesh's vertex array, borders locked) down to the
 /// relative error `error`; no target count, so the error alone stops it.
@@ -124,9 +108,7 @@ void prepare(Patch& patch, const std::vector<uint32_t>& incident_count) {
     patch.interior[v] = incidence.first[v + 1] - incidence.first[v] == incident_count[patch.global[v]];
     patch.fan_before[v] = single_fan(uint32_t(v), incidence, patch.input);
   }
-  const std::vector<EdgeKey> edges = sorted_edges(patch.input);
-  for (const EdgeKey e : edges)
-    if (!contains(edges, reversed(e))) patch.borders.push_back(e);
+  patch.borders = open_edges(sorted_directed_edges(patch.input));
 }
 
 /// The local vertices where `after` (a simplification of patch.input) breaks DecimateOutcome's
@@ -163,13 +145,13 @@ Verdict check(const Patch& patch, const std::vector<Triangle>& after, const Tria
     }
   });
   // Closed and manifold: each directed edge once, with its reverse (or an open edge of the input).
-  const std::vector<EdgeKey> edges = sorted_edges(after);
+  const std::vector<EdgeKey> edges = sorted_directed_edges(after);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, edges.size(), 4096), [&](const auto& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
       const EdgeKey e = edges[i];
       if ((i + 1 < edges.size() && edges[i + 1] == e) || (!contains(edges, reversed(e)) && !contains(patch.borders, e))) {
-        bad[e >> 32].store(1, std::memory_order_relaxed);
-        bad[uint32_t(e)].store(1, std::memory_order_relaxed);
+        bad[edge_from(e)].store(1, std::memory_order_relaxed);
+        bad[edge_to(e)].store(1, std::memory_order_relaxed);
       }
     }
   });
@@ -414,10 +396,7 @@ DecimateOutcome decimate(TriangleMesh& mesh, double max_error) {
     for (std::size_t v = 0; v < x.size(); ++v) outcome.kept_whole += restore[v];
   }
   mesh.triangles.swap(result);
-  std::vector<uint8_t> used(x.size(), 0);
-  for (const Triangle& t : mesh.triangles)
-    for (uint32_t v : t) used[v] = 1;
-  detail::compact_vertices(mesh, used);
+  drop_unused_vertices(mesh);
   outcome.triangles_after = mesh.triangles.size();
   return outcome;
 }

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <random>
+#include <span>
 
 #include "extract/extract.hpp"
 #include "field/anisotropy.hpp"
@@ -40,6 +41,27 @@ void make_matrix(const double (&l)[3], Vec3f axis, double angle, double (&a)[3][
       a[i][j] = 0;
       for (int k = 0; k < 3; ++k) a[i][j] += r[i][k] * l[k] * r[j][k];
     }
+}
+
+/// The A15 lattice of cell d (the pipeline's for spacing d).
+SampleLattice a15_lattice(float d) {
+  SampleLattice lattice;
+  lattice.kind = SampleLattice::Kind::a15;
+  lattice.cell_size = d;
+  return lattice;
+}
+
+/// The anisotropic field over `grid`'s centres with these ellipsoids (in the grid's order):
+/// support R, uniform volumes d³, iso 0.5.
+KernelFieldInput anisotropic_input(const HashGrid& grid, std::span<const Ellipsoid> ellipsoids, float R, float d) {
+  KernelFieldInput in;
+  in.centres = &grid;
+  in.method = FieldMethod::anisotropic;
+  in.kernel_radius = R;
+  in.iso = 0.5f;
+  in.uniform_volume = d * d * d;
+  in.ellipsoids = ellipsoids;
+  return in;
 }
 
 TEST(EigenSym3, RecoversKnownSpectraAndVectors) {
@@ -284,16 +306,8 @@ TEST(KernelField, AnisotropicInsideIsTheLevelSetUnitedWithTheOuterShells) {
     ellipsoids[i] = original[grid.order()[i]];
     shells[i] = unit_volume_shell(ellipsoids[i]);
   }
-  SampleLattice lattice;
-  lattice.kind = SampleLattice::Kind::a15;
-  lattice.cell_size = d;
-  KernelFieldInput in;
-  in.centres = &grid;
-  in.method = FieldMethod::anisotropic;
-  in.kernel_radius = R;
-  in.iso = 0.5f;
-  in.uniform_volume = d * d * d;
-  in.ellipsoids = ellipsoids;
+  const SampleLattice lattice = a15_lattice(d);
+  KernelFieldInput in = anisotropic_input(grid, ellipsoids, R, d);
   const KernelFieldInput kernels_only = in;
   in.shells = shells;
   in.shell_radius = d;  // r_outer
@@ -384,16 +398,8 @@ TEST(EllipsoidConstraint, SmoothedJitteredBlockResidualIsBelow1e5Relative) {
     sorted[i] = original[grid.order()[i]];
     max_axis = std::max(max_axis, sorted[i].max_axis);
   }
-  SampleLattice lattice;
-  lattice.kind = SampleLattice::Kind::a15;
-  lattice.cell_size = d;
-  KernelFieldInput in;
-  in.centres = &grid;
-  in.method = FieldMethod::anisotropic;
-  in.kernel_radius = R;
-  in.iso = 0.5f;
-  in.uniform_volume = d * d * d;
-  in.ellipsoids = sorted;
+  const SampleLattice lattice = a15_lattice(d);
+  KernelFieldInput in = anisotropic_input(grid, sorted, R, d);
   const SparseField f = kernel_field(in, lattice, band_blocks(grid, lattice, kernel_support(in) + d));
   TriangleMesh mesh = extract_surface(f, 0.0f, Extractor::tiles).mesh;
   // The constraint shells the pipeline uses: the kernel ellipsoids scaled to unit volume.
@@ -428,9 +434,7 @@ TEST(SurfaceDistance, MatchesBruteForceOnASphereAndIsZeroOnItself) {
   const float d = 0.1f;
   const ParticleSet ps = test::shell_ball(0.6f, d);
   const HashGrid grid(ps.positions, 2 * d);
-  SampleLattice lattice;
-  lattice.kind = SampleLattice::Kind::a15;
-  lattice.cell_size = d;
+  const SampleLattice lattice = a15_lattice(d);
   const SparseField f = distance_field(grid, lattice, 1.2f * d, band_blocks(grid, lattice, 1.2f * d));
   const TriangleMesh mesh = extract_surface(f, d, Extractor::tiles).mesh;
   const SurfaceDistanceReport self = distance_to_surface(mesh.vertices, mesh);

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <mutex>
 
+#include "common/clock.hpp"
 #include "memory.hpp"
 
 namespace meniscus::bench {
@@ -32,10 +33,6 @@ class ParticleList {
   std::span<const Vec3f> p_;
   double radius_;
 };
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 }  // namespace
 

@@ -3,6 +3,8 @@
 
 #include "memory_scope.hpp"
 
+#include <sys/resource.h>
+
 #include <atomic>
 #include <climits>
 #include <cstdlib>  // defines __GLIBC__ on glibc
@@ -12,6 +14,12 @@
 #endif
 
 namespace meniscus {
+
+std::size_t peak_resident_bytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return std::size_t(usage.ru_maxrss) * 1024;
+}
 
 namespace {
 

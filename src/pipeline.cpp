@@ -1,7 +1,6 @@
 // meniscus — the pipeline: runs the stages in order, times them, reports progress
 // (DESIGN §1: hash grid → sparse distance field → extraction → weld → constrained smoothing →
 // erosion → attribute transfer → normals).
-#include <sys/resource.h>
 #include <unistd.h>
 
 #include <tbb/global_control.h>
@@ -17,6 +16,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "common/clock.hpp"
 #include "cuda/pipeline_cuda.hpp"
 #include "stage_plan.hpp"
 #include "extract/extract.hpp"
@@ -32,6 +32,7 @@
 #include "meniscus/backend.hpp"
 #include "meniscus/distributed.hpp"
 #include "meniscus/errors.hpp"
+#include "meniscus/memory.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "meniscus/resources.hpp"
 #include "extract/field_band.hpp"
@@ -53,12 +54,6 @@ double Stats::total_seconds() const {
 }
 
 namespace {
-
-std::size_t peak_rss_bytes() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return std::size_t(usage.ru_maxrss) * 1024;
-}
 
 /// The default --max-memory: 90 % of what the process is granted (resources.hpp).
 constexpr double kMemoryShare = 0.9;
@@ -82,7 +77,7 @@ class StageTimer {
 
  private:
   void finish(const char* name, std::chrono::steady_clock::time_point t0) {
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double s = seconds_since(t0);
     stats_.stages.push_back({name, s});
     if (progress_) progress_(name, 1.0);
   }
@@ -734,7 +729,7 @@ Result reconstruct(const ParticleSet& all_particles, const Params& params, const
   finish_mesh(result.mesh, p, stats, progress);
   stats.vertices = result.mesh.vertices.size();
   stats.triangles = result.mesh.triangles.size();
-  stats.peak_memory_bytes = peak_rss_bytes();
+  stats.peak_memory_bytes = peak_resident_bytes();
   return result;
 }
 

@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "common/clock.hpp"
 #include "field/vdb_export.hpp"
 #include "io/atomic_file.hpp"
 #include "meniscus/backend.hpp"
@@ -263,10 +264,6 @@ struct Box3 {
   }
   bool valid() const { return lo.x <= hi.x; }
 };
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 /// The files of one frame (or of the single job).
 struct FrameFiles {

@@ -4,7 +4,6 @@
 #include <fmt/format.h>
 #include <mpi.h>
 #include <nlohmann/json.hpp>
-#include <sys/resource.h>
 
 #include <algorithm>
 #include <cctype>
@@ -19,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "common/clock.hpp"
 #include "io/atomic_file.hpp"
 #include "io/format_registry.hpp"
 #include "io/ply.hpp"
@@ -26,21 +26,12 @@
 #include "meniscus/distributed.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
+#include "meniscus/memory.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "stage_plan.hpp"
 
 namespace meniscus::cli {
 namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-std::size_t peak_rss_bytes() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return std::size_t(usage.ru_maxrss) * 1024;
-}
 
 // --- A byte buffer for particle sets and meshes (names, counts, arrays; this machine's byte order,
 // as the ranks of one job share it).
@@ -565,7 +556,7 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
     MPI_Abort(MPI_COMM_WORLD, 1);
   }
   stages.emplace_back(job.pieces ? "write_pieces" : streamed ? "gather_write" : "gather_weld", seconds_since(t3));
-  report.peak_bytes = double(peak_rss_bytes());
+  report.peak_bytes = double(peak_resident_bytes());
   std::vector<RankReport> reports(static_cast<std::size_t>(ranks));
   MPI_Gather(&report, kReportFields, MPI_DOUBLE, reports.data(), kReportFields, MPI_DOUBLE, 0, MPI_COMM_WORLD);
   double slowest = 0;
@@ -583,13 +574,13 @@ int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
       for (const RankReport& r : reports) vertices += std::size_t(r.owned_vertices), triangles += std::size_t(r.owned_triangles);
       if (streamed) {
         vertices = streamed_vertices;
-        reports[0].peak_bytes = double(peak_rss_bytes());  // rank 0's peak with the gather and the write
+        reports[0].peak_bytes = double(peak_resident_bytes());  // rank 0's peak with the gather and the write
       } else if (!job.pieces) {
         vertices = mesh.vertices.size();
         write_mesh(job.output, mesh);
         mesh = {};
         stages.emplace_back("write", seconds_since(t4));
-        reports[0].peak_bytes = double(peak_rss_bytes());  // rank 0's peak with the weld and the write
+        reports[0].peak_bytes = double(peak_resident_bytes());  // rank 0's peak with the weld and the write
       }
       double total = 0, peak = 0;
       for (const auto& [name, s] : stages) total += s;

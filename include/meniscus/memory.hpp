@@ -1,7 +1,13 @@
-// meniscus — how the process's allocator treats the pipeline's large arrays.
+// meniscus — the process's peak memory, and how its allocator treats the pipeline's large arrays.
 #pragma once
 
+#include <cstddef>
+
 namespace meniscus {
+
+/// The process's peak resident memory so far, in bytes (getrusage's ru_maxrss): what --stats
+/// reports as peak_memory_bytes.
+std::size_t peak_resident_bytes();
 
 /// Makes the C library's malloc serve every block of 1 MiB or more from its own mapping and give
 /// it back to the system when freed. By default glibc raises that threshold to the size of the

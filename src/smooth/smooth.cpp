@@ -12,6 +12,7 @@
 #include <optional>
 #include <cstdlib>
 
+#include "common/clock.hpp"
 #include "common/huge_pages.hpp"
 #include "common/parallel_index.hpp"
 #include "memory_scope.hpp"
@@ -24,10 +25,6 @@
 namespace meniscus {
 
 namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 template <class F>
 void for_each_vertex(std::size_t n, F&& f) {

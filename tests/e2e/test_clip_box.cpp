@@ -186,6 +186,7 @@ void expect_capped_pieces_add_up(const char* frame, int axis_a, int axis_b) {
 }
 
 TEST(ClipBox, CappedPiecesOfTheDamBreakAreWatertightAndAddUpToTheWhole) {
+  if (test::kSanitized) GTEST_SKIP() << "a large frame: the Release run has it (the bunny's pieces below run here)";
   expect_capped_pieces_add_up("ply/dam_break_frame_23_24389_particles.ply", 0, 2);
 }
 

@@ -161,6 +161,10 @@ std::size_t count_before(std::string_view name, std::string_view suffix) {
   return 0;
 }
 
+bool large_for_sanitizers(std::string_view frame_name) {
+  return kSanitized && count_before(frame_name, "_particles") >= 8000;
+}
+
 std::string data_file(const std::string& name) { return std::string(MENISCUS_TEST_DATA) + "/" + name; }
 std::string cli() { return MENISCUS_CLI; }
 

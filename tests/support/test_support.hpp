@@ -13,6 +13,21 @@
 
 namespace meniscus::test {
 
+/// True in the AddressSanitizer build (gcc's or clang's). There the code runs about 4x slower, so
+/// the tests that repeat one path over every real frame or a large scene run a subset of their
+/// inputs there (large_for_sanitizers; each test names its subset); the Release run covers all.
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+inline constexpr bool kSanitized = true;
+#else
+inline constexpr bool kSanitized = false;
+#endif
+#else
+inline constexpr bool kSanitized = false;
+#endif
+
 /// nx × ny × nz particles on a cubic lattice of spacing d starting at `origin`; each coordinate
 /// displaced uniformly in [-jitter·d, +jitter·d] (deterministic for a given seed).
 ParticleSet lattice_block(int nx, int ny, int nz, float d, float jitter = 0, uint32_t seed = 1,
@@ -55,6 +70,10 @@ int run_command(const std::string& command, std::string* output = nullptr);
 /// N where `name` holds "_<N>" + `suffix` (the bundled frames carry their particle count in their
 /// names: "dam_break_frame_23_24389_particles.ply"); 0 when it holds none.
 std::size_t count_before(std::string_view name, std::string_view suffix);
+
+/// Under the sanitizers (kSanitized), whether a bundled real frame is one of the large ones (8,000
+/// particles or more, by its name) that the tests looping over frames leave to the Release run.
+bool large_for_sanitizers(std::string_view frame_name);
 
 /// Path of a bundled test data file (tests/data/NAME).
 std::string data_file(const std::string& name);

@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer target of every particle reader with clang and runs each for a bounded
-# time (FUZZ_SECONDS, default 30) on a corpus seeded with the real files in tests/data.
+# time (FUZZ_SECONDS, default 30; one target per core at a time) on a corpus seeded with the real
+# files in tests/data.
 # Exits non-zero on any finding (crash, sanitizer report, leak, timeout).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${FUZZ_SECONDS:-30}
 build=build/fuzz
-cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ -DMENISCUS_FUZZ=ON -DMENISCUS_CUDA=OFF >/dev/null
-cmake --build "$build" -j "$(nproc)"
+cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ -DMENISCUS_FUZZ=ON -DMENISCUS_CUDA=OFF -DMENISCUS_PYTHON=OFF >/dev/null
+cmake --build "$build" -j "$(nproc)" --target fuzzers  # the readers and the fuzz targets, not the whole library
 
 seed() {  # the real files of a format as seeds, or a tiny valid file where there is none
   local format=$1 corpus=$2
@@ -21,17 +22,35 @@ seed() {  # the real files of a format as seeds, or a tiny valid file where ther
     bgeojson) printf '\x7fNSJb[' > "$corpus/stub.bgeo" ;;
   esac
 }
-status=0
-for target in "$build"/tests/fuzz/fuzz_*; do
-  format=${target##*/fuzz_}
+fuzz() {  # one target: its report in $build/fuzz-FORMAT.log, its fuzzer's exit status in .status
+  set +e  # (a background job of its own) a finding is a status to report, not the end of the script
+  local target=$1 format=${1##*/fuzz_} corpus found
   corpus=$(mktemp -d)
   seed "$format" "$corpus"
-  echo "== fuzzing $format for ${seconds}s ($(ls "$corpus" | wc -l) seeds)"
-  if ! "$target" "$corpus" -max_total_time="$seconds" -max_len=1048576 -rss_limit_mb=2048 -timeout=10 \
-       -print_final_stats=1 -artifact_prefix="$build/crash-$format-" 2>&1 | tail -n 12; then
+  {
+    echo "== fuzzing $format for ${seconds}s ($(ls "$corpus" | wc -l) seeds)"
+    "$target" "$corpus" -max_total_time="$seconds" -max_len=1048576 -rss_limit_mb=2048 -timeout=10 \
+      -print_final_stats=1 -artifact_prefix="$build/crash-$format-" 2>&1 | tail -n 12
+    found=${PIPESTATUS[0]}
+  } > "$build/fuzz-$format.log"
+  echo "$found" > "$build/fuzz-$format.status"
+  rm -rf "$corpus"
+}
+# One target per core at a time (each fuzzer is one process).
+formats=()
+for target in "$build"/tests/fuzz/fuzz_*; do
+  formats+=("${target##*/fuzz_}")
+  rm -f "$build/fuzz-${formats[-1]}.status"
+  fuzz "$target" &
+  while (( $(jobs -rp | wc -l) >= $(nproc) )); do wait -n || true; done
+done
+wait
+status=0
+for format in "${formats[@]}"; do
+  cat "$build/fuzz-$format.log"
+  if [[ $(cat "$build/fuzz-$format.status" 2>/dev/null) != 0 ]]; then
     echo "FINDING in the $format reader: see $build/crash-$format-*"
     status=1
   fi
-  rm -rf "$corpus"
 done
 exit $status

@@ -149,11 +149,14 @@ TEST(Distributed, RealFramesInSlabsWeldToTheWholeFrameBitForBit) {
   }
 }
 
-// A 200k-particle wide splash (100k under the sanitizers) in 4 slabs, where each slab with its
-// halo holds well under the whole frame: the weld is the whole frame's mesh bit for bit. (The 1M
-// and 3M splashes over real MPI ranks: bench/mpi.sh, bench/RESULTS.md.)
+// A 200k-particle wide splash in 4 slabs, where each slab with its halo holds well under the
+// whole frame: the weld is the whole frame's mesh bit for bit. (The 1M and 3M splashes over real
+// MPI ranks: bench/mpi.sh, bench/RESULTS.md.) Release only: under the sanitizers the smallest
+// splash whose slabs hold under 70 % of it takes 2 minutes, and the `mpi` test's wide splash
+// (real ranks) and the real frames above run the same code there.
 TEST(Distributed, WideSplashInFourSlabs) {
-  const ParticleSet ps = test::wide_splash(test::kSanitized ? 100000 : 200000, 0.01f);
+  if (test::kSanitized) GTEST_SKIP() << "a large scene: the Release run has it";
+  const ParticleSet ps = test::wide_splash(200000, 0.01f);
   Params given;
   given.spacing = 0.01;
   const TriangleMesh whole = reconstruct(ps, given).mesh;

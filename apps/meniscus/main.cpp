@@ -626,6 +626,9 @@ std::vector<std::string> pvtp_pieces(const std::string& index) {
 }
 
 /// Welds pieces (a .pvtp index, or mesh files) into one mesh by their coincident seam vertices.
+/// Each piece is read twice — its positions first, then (after the weld has numbered the
+/// vertices) its attributes and triangles — so that the merge holds the pieces' positions and the
+/// welded mesh, never every piece whole (PieceWelder).
 int run_merge(const MergeArgs& a) {
   check_output_format(a.output);
   std::vector<std::string> files;
@@ -638,13 +641,27 @@ int run_merge(const MergeArgs& a) {
     }
   }
   const auto t0 = std::chrono::steady_clock::now();
-  std::vector<TriangleMesh> pieces;
-  std::size_t vertices = 0;
-  for (const std::string& f : files) {
-    pieces.push_back(read_mesh(f));
-    vertices += pieces.back().vertices.size();
+  PieceWelder welder(files.size());
+  std::vector<std::size_t> counts(files.size());  // each piece's vertices and triangles, to check the second read
+  std::size_t vertices = 0, triangles = 0;
+  bool normals = true;
+  for (std::size_t p = 0; p < files.size(); ++p) {
+    TriangleMesh piece = read_mesh(files[p]);
+    normals = normals && piece.normals.size() == piece.vertices.size();
+    counts[p] = piece.vertices.size() + piece.triangles.size();
+    vertices += piece.vertices.size(), triangles += piece.triangles.size();
+    welder.add_vertices(p, std::move(piece.vertices));
   }
-  const TriangleMesh mesh = weld_pieces(std::move(pieces));
+  welder.weld_vertices();
+  welder.reserve_triangles(triangles);
+  for (std::size_t p = 0; p < files.size(); ++p) {
+    const TriangleMesh piece = read_mesh(files[p]);
+    if (piece.vertices.size() + piece.triangles.size() != counts[p])
+      throw FormatError(files[p], "", "the piece changed while it was being merged");
+    welder.add_attributes(p, piece.attributes);
+    welder.add_triangles(p, piece.triangles);
+  }
+  const TriangleMesh mesh = welder.finish(normals);
   make_parent_dirs(a.output);
   write_mesh(a.output, mesh);
   if (!a.quiet) {

@@ -9,26 +9,20 @@
 
 #include "memory_scope.hpp"
 #include "meniscus/memory.hpp"
+#include "support/test_support.hpp"
 
 #if defined(__GLIBC__)
 #include <malloc.h>
-#endif
-
-#if defined(__SANITIZE_ADDRESS__)
-#define MENISCUS_TEST_SANITIZED 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define MENISCUS_TEST_SANITIZED 1
-#endif
 #endif
 
 namespace meniscus {
 namespace {
 
 TEST(Memory, LargeBlocksStayMappedAfterALargerOneWasFreed) {
-#if !defined(__GLIBC__) || defined(MENISCUS_TEST_SANITIZED)
-  GTEST_SKIP() << "glibc's own malloc only (a sanitizer replaces it)";
+#if !defined(__GLIBC__)
+  GTEST_SKIP() << "glibc's own malloc only";
 #else
+  if (test::kSanitized) GTEST_SKIP() << "glibc's own malloc only (a sanitizer replaces it)";
   ASSERT_TRUE(release_large_blocks_eagerly());
   // Freeing a 16 MiB mapping would raise the dynamic threshold to 16 MiB (it rises up to 32) ...
   constexpr std::size_t kBig = std::size_t(16) << 20, kBlock = std::size_t(4) << 20;
@@ -48,9 +42,10 @@ TEST(Memory, LargeBlocksStayMappedAfterALargerOneWasFreed) {
 }
 
 TEST(Memory, BetweenStagesFreedBlocksAreReusedAndThenGivenBack) {
-#if !defined(__GLIBC__) || defined(MENISCUS_TEST_SANITIZED)
-  GTEST_SKIP() << "glibc's own malloc only (a sanitizer replaces it)";
+#if !defined(__GLIBC__)
+  GTEST_SKIP() << "glibc's own malloc only";
 #else
+  if (test::kSanitized) GTEST_SKIP() << "glibc's own malloc only (a sanitizer replaces it)";
   ASSERT_TRUE(release_large_blocks_eagerly());
   constexpr std::size_t kBlock = std::size_t(64) << 20;
   {
@@ -96,9 +91,10 @@ TEST(Memory, BetweenStagesFreedBlocksAreReusedAndThenGivenBack) {
 }
 
 TEST(Memory, FreeHeapPagesGivenBackInTheMiddleOfTheHeap) {
-#if !defined(__GLIBC__) || defined(MENISCUS_TEST_SANITIZED)
-  GTEST_SKIP() << "glibc's own malloc only (a sanitizer replaces it)";
+#if !defined(__GLIBC__)
+  GTEST_SKIP() << "glibc's own malloc only";
 #else
+  if (test::kSanitized) GTEST_SKIP() << "glibc's own malloc only (a sanitizer replaces it)";
   ASSERT_TRUE(release_large_blocks_eagerly());
   ASSERT_TRUE(reuse_freed_blocks_between_stages());
   constexpr std::size_t kBlock = std::size_t(64) << 20;

@@ -146,11 +146,12 @@ TEST(Decimate, RealFramesStayWithinTheBoundClosedAndWhole) {
   struct Frame {
     const char* file;
     const char* attribute;
-    double most_kept;  ///< the share of the triangles kept, measured (README) with a little room
+    double most_kept;  ///< the share of the triangles kept: 30 % on the dam break, the target at E = 0.02;
+                       ///< the others as measured (README) with a little room
   };
-  for (const Frame& f : {Frame{"ply/dam_break_frame_23_24389_particles.ply", "", 0.38},
-                         Frame{"ply/double_dam_break_frame_26_4732_particles.ply", "velocity", 0.25},
-                         Frame{"ply/bunny_frame_14_7705_particles.ply", "velocity", 0.46}}) {
+  for (const Frame& f : {Frame{"ply/dam_break_frame_23_24389_particles.ply", "", 0.30},
+                         Frame{"ply/double_dam_break_frame_26_4732_particles.ply", "velocity", 0.20},
+                         Frame{"ply/bunny_frame_14_7705_particles.ply", "velocity", 0.37}}) {
     const char* frame = f.file;
     if (test::kSanitized && std::string_view(frame).find("double_dam_break") == std::string_view::npos)
       continue;  // the double dam break only under the sanitizers

@@ -314,7 +314,8 @@ Patch make_patch(const std::vector<Vec3f>& x, const std::vector<uint32_t>& root,
 }
 
 /// One pass: `base` (mesh numbering) cut into patches by a grid of side `side` shifted by
-/// `offset`, each simplified on its own, in parallel. `full` is the BVH of `full_triangles`.
+/// `offset`, each simplified on its own with meshopt at `target` times the bound, in parallel.
+/// `full` holds the BVH of `full_triangles`.
 Measured simplify_patches(const std::vector<Vec3f>& x, const std::vector<uint32_t>& root,
                           const std::vector<Triangle>& full_triangles, const Measured& base_measured, const Reference& full,
                           double side, double offset, double max_error, double target, DecimateOutcome& outcome) {
@@ -437,8 +438,8 @@ DecimateOutcome decimate(TriangleMesh& mesh, double max_error) {
     if (pass > 0 && double(result.triangles.size()) > (1 - kLeastGain) * double(before)) break;
   }
   // The whole result against the whole full mesh: what no patch could see (a fan pinched at a
-  // seam vertex, a component spread over patches collapsed away, a vertex of the first pass no
-  // second-pass patch measured). A component that fails gets its full triangles back.
+  // seam vertex, a component spread over patches collapsed away, a vertex an earlier pass removed
+  // that no later patch measured). A component that fails gets its full triangles back.
   Patch whole = make_patch(x, root, {full_triangles, {}});
   std::vector<uint32_t> count(x.size(), 0);
   for (const Triangle& t : full_triangles)

@@ -10,9 +10,9 @@
 // Threads: the GIL is released while the library reads, writes or reconstructs; it is taken
 // back only at stage boundaries to call the progress callback and check for Ctrl-C.
 //
-// Exceptions: InvalidParameter → ValueError, FormatError → meniscus.FormatError (a ValueError
-// with .file and .location), IoError → OSError, ResourceError → MemoryError; the messages are
-// the library's what(), i.e. what the CLI prints after "meniscus: error: ".
+// Exceptions: InvalidParameter and InputError → ValueError, FormatError → meniscus.FormatError (a
+// ValueError with .file and .location), IoError → OSError, ResourceError → MemoryError; the
+// messages are the library's what(), naming parameters as Python keywords (messages.hpp).
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -28,6 +28,8 @@
 #include "meniscus/config.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
+#include "meniscus/messages.hpp"
+#include "meniscus/parameters.hpp"
 #include "meniscus/reconstruct.hpp"
 
 namespace py = pybind11;
@@ -203,10 +205,12 @@ py::dict reconstruct(const py::handle& positions, const py::handle& attributes, 
   return out;
 }
 
-py::tuple read_particles(const std::string& path, const std::vector<std::string>& columns, bool drop_invalid) {
+py::tuple read_particles(const std::string& path, const std::vector<std::string>& columns, bool drop_invalid,
+                         double max_memory_gb) {
   meniscus::ReadOptions options;
   options.columns = columns;
   options.drop_invalid = drop_invalid;
+  options.max_memory_gb = max_memory_gb;
   meniscus::ReadReport report;
   meniscus::ParticleSet read;
   {
@@ -269,6 +273,8 @@ double estimate_spacing(const py::handle& positions) {
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "meniscus: fluid particles to a smooth watertight triangle mesh (the C++ core; use the package)";
+  // Messages name parameters as Python keywords: "steps_a=20001: must be …".
+  meniscus::set_message_spelling(meniscus::Spelling::python);
   m.attr("__version__") = meniscus::version();
 
   static py::exception<meniscus::FormatError> format_error(m, "FormatError", PyExc_ValueError);
@@ -285,6 +291,8 @@ PYBIND11_MODULE(_core, m) {
       PyErr_SetObject(format_error.ptr(), error.ptr());
     } catch (const meniscus::InvalidParameter& e) {
       PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const meniscus::InputError& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
     } catch (const meniscus::IoError& e) {
       PyErr_SetString(PyExc_OSError, e.what());
     } catch (const meniscus::ResourceError& e) {
@@ -297,12 +305,14 @@ PYBIND11_MODULE(_core, m) {
         "positions N×3, attributes dict or None, params dict of config.hpp keys, progress callable or None "
         "-> dict(vertices, triangles, normals, attributes, stats JSON string)");
   m.def("read_particles", &read_particles, py::arg("path"), py::arg("columns"), py::arg("drop_invalid"),
-        "-> (positions N×3 float32, attributes dict, format, dropped_invalid)");
+        py::arg("max_memory_gb"), "-> (positions N×3 float32, attributes dict, format, dropped_invalid)");
   m.def("read_mesh", &read_mesh, py::arg("path"), "-> dict(vertices, triangles, normals, attributes)");
   m.def("write_mesh", &write_mesh, py::arg("path"), py::arg("vertices"), py::arg("triangles"), py::arg("normals"),
         py::arg("attributes"));
   m.def("estimate_spacing", &estimate_spacing, py::arg("positions"));
   m.def("preset_names", &meniscus::preset_names);
+  m.def("parameter_table", [] { return meniscus::parameter_table_json().dump(); },
+        "the table of parameters as JSON text: keys, types, ranges, defaults, help");
   m.def("particle_formats", &meniscus::particle_formats);
   m.def("mesh_formats", &meniscus::mesh_formats);
 }

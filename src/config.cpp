@@ -6,15 +6,15 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <fstream>
-#include <iterator>
 #include <limits>
-#include <sstream>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "io/file_bytes.hpp"
 #include "meniscus/errors.hpp"
+#include "meniscus/messages.hpp"
+#include "meniscus/parameters.hpp"
 
 namespace meniscus {
 
@@ -22,153 +22,9 @@ namespace {
 
 using nlohmann::json;
 
-// ---------------------------------------------------------------------------------------------
-// JSON values of the expected type, or an InvalidParameter naming the key.
-
-[[noreturn]] void wrong_type(std::string_view key, const json& value, const char* expected) {
-  std::string shown = value.dump();
-  if (shown.size() > 40) shown = shown.substr(0, 37) + "...";
-  throw InvalidParameter(fmt::format("{}: expected {}, got {} {}", key, expected, value.type_name(), shown));
-}
-
-double as_number(std::string_view key, const json& value) {
-  if (!value.is_number()) wrong_type(key, value, "a number");
-  return value.get<double>();
-}
-
-int as_int(std::string_view key, const json& value) {
-  if (value.is_number_integer()) {
-    // Signed and unsigned JSON integers alike; anything beyond int is a range error.
-    const auto v = value.is_number_unsigned() ? (value.get<uint64_t>() > uint64_t(std::numeric_limits<int>::max())
-                                                     ? std::numeric_limits<int64_t>::max()
-                                                     : int64_t(value.get<uint64_t>()))
-                                              : value.get<int64_t>();
-    if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max())
-      throw InvalidParameter(fmt::format("{} = {}: out of range", key, v));
-    return int(v);
-  }
-  // 40.0 (a float that holds an integer, as some front ends send) is accepted; 40.5 is not.
-  if (value.is_number_float()) {
-    const double v = value.get<double>();
-    if (v == std::floor(v) && std::abs(v) <= double(std::numeric_limits<int>::max())) return int(v);
-  }
-  wrong_type(key, value, "an integer");
-}
-
-bool as_bool(std::string_view key, const json& value) {
-  if (!value.is_boolean()) wrong_type(key, value, "true or false");
-  return value.get<bool>();
-}
-
-std::string as_string(std::string_view key, const json& value) {
-  if (!value.is_string()) wrong_type(key, value, "a string");
-  return value.get<std::string>();
-}
-
-/// A list of names: a JSON array of strings, or one comma-separated string ("velocity,color").
-/// An array of numbers, or a string of comma-separated numbers ("0,0,0,1,1,1").
-std::vector<double> as_numbers(std::string_view key, const json& value) {
-  std::vector<double> numbers;
-  if (value.is_string()) {
-    std::stringstream in(value.get<std::string>());
-    for (std::string item; std::getline(in, item, ',');) {
-      std::size_t used = 0;
-      double x = 0;
-      try {
-        x = std::stod(item, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used == 0 || item.find_first_not_of(" \t", used) != std::string::npos) wrong_type(key, value, "numbers separated by commas");
-      numbers.push_back(x);
-    }
-    return numbers;
-  }
-  if (!value.is_array()) wrong_type(key, value, "an array of numbers");
-  for (const json& item : value) numbers.push_back(as_number(key, item));
-  return numbers;
-}
-
-std::vector<std::string> as_names(std::string_view key, const json& value) {
-  std::vector<std::string> names;
-  if (value.is_string()) {
-    std::stringstream in(value.get<std::string>());
-    for (std::string name; std::getline(in, name, ',');)
-      if (!name.empty()) names.push_back(name);
-    return names;
-  }
-  if (!value.is_array()) wrong_type(key, value, "an array of attribute names");
-  for (const json& item : value) {
-    if (!item.is_string()) wrong_type(key, value, "an array of attribute names");
-    names.push_back(item.get<std::string>());
-  }
-  return names;
-}
-
-// ---------------------------------------------------------------------------------------------
-// The keys. Each setter checks the type; ranges are checked by Params::validate on a default
-// Params holding only that value (so a key is judged on its own, whatever order keys come in).
-
-using Setter = void (*)(Params&, std::string_view key, const json& value);
-
-struct Key {
-  const char* name;
-  Setter set;
-};
-
-#define MENISCUS_NUMBER_KEY(member) \
-  Key { #member, [](Params& p, std::string_view k, const json& v) { p.member = as_number(k, v); } }
-#define MENISCUS_INT_KEY(member) \
-  Key { #member, [](Params& p, std::string_view k, const json& v) { p.member = as_int(k, v); } }
-
-const std::vector<Key>& keys() {
-  static const std::vector<Key> table = {
-      MENISCUS_NUMBER_KEY(spacing),
-      // Written by --stats; a replayed stats file gives the spacing itself, so this is ignored.
-      Key{"spacing_estimated", [](Params&, std::string_view k, const json& v) { (void)as_bool(k, v); }},
-      Key{"estimated_on", [](Params&, std::string_view k, const json& v) { (void)as_string(k, v); }},
-      MENISCUS_NUMBER_KEY(voxel_size),
-      Key{"detail", [](Params& p, std::string_view k, const json& v) { apply_detail(p, as_number(k, v)); }},
-      MENISCUS_NUMBER_KEY(r_inner),
-      MENISCUS_NUMBER_KEY(r_outer),
-      MENISCUS_NUMBER_KEY(r_outer_factor),
-      Key{"extract", [](Params& p, std::string_view k, const json& v) { p.extract = parse_extractor(as_string(k, v)); }},
-      Key{"keep_voids", [](Params& p, std::string_view k, const json& v) { p.keep_voids = as_bool(k, v); }},
-      MENISCUS_INT_KEY(steps_a),
-      MENISCUS_INT_KEY(steps_b),
-      MENISCUS_INT_KEY(steps_free),
-      MENISCUS_NUMBER_KEY(relax),
-      MENISCUS_NUMBER_KEY(relax_b),
-      Key{"solver", [](Params& p, std::string_view k, const json& v) { p.solver = parse_solver(as_string(k, v)); }},
-      MENISCUS_INT_KEY(rebuild_b),
-      MENISCUS_NUMBER_KEY(erode),
-      MENISCUS_INT_KEY(min_particles),
-      Key{"particle_box", [](Params& p, std::string_view k, const json& v) { p.particle_box = as_numbers(k, v); }},
-      Key{"clip_box", [](Params& p, std::string_view k, const json& v) { p.clip_box = as_numbers(k, v); }},
-      Key{"clip_cap", [](Params& p, std::string_view k, const json& v) { p.clip_cap = as_bool(k, v); }},
-      MENISCUS_NUMBER_KEY(decimate),
-      Key{"transfer", [](Params& p, std::string_view k, const json& v) { p.transfer = as_names(k, v); }},
-      MENISCUS_NUMBER_KEY(transfer_radius),
-      MENISCUS_INT_KEY(threads),
-      MENISCUS_NUMBER_KEY(max_memory_gb),
-      Key{"field", [](Params& p, std::string_view k, const json& v) { p.field = parse_field(as_string(k, v)); }},
-      MENISCUS_NUMBER_KEY(iso),
-      MENISCUS_NUMBER_KEY(kernel_radius),
-      MENISCUS_NUMBER_KEY(rest_density),
-      MENISCUS_NUMBER_KEY(smooth_particles),
-      Key{"velocity_weighted", [](Params& p, std::string_view k, const json& v) { p.velocity_weighted = as_bool(k, v); }},
-      MENISCUS_NUMBER_KEY(velocity_reference),
-      MENISCUS_NUMBER_KEY(velocity_min_weight),
-      Key{"backend", [](Params& p, std::string_view k, const json& v) { p.backend = parse_backend(as_string(k, v)); }},
-      // The controls: applied before the keys above by params_from_json.
-      Key{"preset", [](Params& p, std::string_view k, const json& v) { apply_preset(p, as_string(k, v)); }},
-      Key{"smoothness", [](Params& p, std::string_view k, const json& v) { apply_smoothness(p, as_number(k, v)); }},
-  };
-  return table;
-}
-
-#undef MENISCUS_NUMBER_KEY
-#undef MENISCUS_INT_KEY
+/// Keys that a --stats file's "parameters" carry besides the table's: accepted and ignored, so a
+/// stats file replays as a configuration.
+constexpr std::string_view kStatsOnlyKeys[] = {"spacing_estimated", "estimated_on"};
 
 std::string canonical(std::string_view key) {
   std::string k(key);
@@ -176,41 +32,13 @@ std::string canonical(std::string_view key) {
   return k;
 }
 
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t substitute = diagonal + (a[i - 1] == b[j - 1] ? 0 : 1);
-      diagonal = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, substitute});
-    }
-  }
-  return row[b.size()];
-}
-
 [[noreturn]] void unknown_key(std::string_view key) {
-  const std::string k = canonical(key);
-  const Key* best = nullptr;
-  std::size_t best_distance = std::numeric_limits<std::size_t>::max();
-  for (const Key& candidate : keys()) {
-    const std::size_t d = edit_distance(k, candidate.name);
-    if (d < best_distance) best_distance = d, best = &candidate;
-  }
-  std::string known;
-  for (const Key& candidate : keys()) known += (known.empty() ? "" : ", ") + std::string(candidate.name);
-  const bool close = best != nullptr && best_distance <= std::max<std::size_t>(2, k.size() / 3);
-  throw InvalidParameter(fmt::format("unknown parameter '{}'{} (known: {})", key,
-                                     close ? fmt::format(" — did you mean '{}'?", best->name) : "", known));
-}
-
-const Key& find_key(std::string_view key) {
-  const std::string k = canonical(key);
-  for (const Key& candidate : keys())
-    if (k == candidate.name) return candidate;
-  unknown_key(key);
+  std::vector<std::string> known;
+  for (const ParamSpec& spec : parameter_table()) known.emplace_back(spec.key);
+  const std::string close = closest_name(canonical(key), known);
+  throw InvalidParameter(fmt::format("unknown parameter '{}'{} (known: {})", printable(key),
+                                     close.empty() ? "" : fmt::format(" — did you mean '{}'?", close),
+                                     fmt::join(known, ", ")));
 }
 
 /// Line (1-based) of the byte at `index` (0-based) of `text`.
@@ -265,44 +93,46 @@ void apply_preset(Params& params, std::string_view name) {
       params.steps_free = p.steps_free;
       return;
     }
-  throw InvalidParameter(fmt::format("preset: unknown preset '{}' (known: {})", name, fmt::join(preset_names(), ", ")));
+  throw InvalidParameter("preset", std::string(name), fmt::format("expected {}", fmt::join(preset_names(), ", ")));
 }
 
 void apply_smoothness(Params& params, double smoothness) {
   if (!(smoothness >= 0 && smoothness <= 1))
-    throw InvalidParameter(fmt::format("smoothness = {:g}: must be in [0, 1] (0.5 = the defaults)", smoothness));
+    throw InvalidParameter("smoothness", fmt::format("{:g}", smoothness),
+                           "must be " + accepted_values(*find_parameter("smoothness")) + " (0.5 = the defaults)");
   params.steps_a = int(std::lround(kStepsAAtFull * smoothness));
   params.steps_b = int(std::lround(kStepsBAtFull * smoothness));
   params.steps_free = int(std::lround(kStepsFreeAtFull * smoothness));
 }
 
 void apply_detail(Params& params, double detail) {
-  Params probe;
-  probe.detail = detail;
-  probe.validate();  // names "detail" and the range
+  if (!(detail > 0 && detail <= 8))
+    throw InvalidParameter("detail", fmt::format("{:g}", detail),
+                           "must be " + accepted_values(*find_parameter("detail")) +
+                               " (1 = default resolution, 2 = half the voxel size)");
   params.detail = detail;
   params.voxel_size = 0;  // derived from the detail; an explicit voxel_size set later wins
 }
 
 void set_param(Params& params, std::string_view key, const json& value) {
-  const Key& k = find_key(key);
-  // Judge the value on its own: a default Params holding only it. Cross-parameter checks
-  // (r_inner < r_outer) are left to the caller's final validate(), since keys come in any order.
-  Params probe;
-  if (canonical(key) == "clip_cap") probe.clip_box = {0, 0, 0, 1, 1, 1};  // needs a box: checked at the end
-  k.set(probe, key, value);
+  const std::string k = canonical(key);
+  for (const std::string_view ignored : kStatsOnlyKeys)
+    if (k == ignored) return;
+  const ParamSpec* spec = find_parameter(k);
+  if (spec == nullptr || k != spec->key) unknown_key(key);
+  // The value is judged on its own (type and range); rules between parameters (r_inner < r_outer)
+  // are left to the caller's final validate(), since keys come in any order.
   try {
-    probe.validate();
+    set_parameter(params, *spec, value);
   } catch (const InvalidParameter& e) {
-    if (canonical(key) == key) throw;
-    throw InvalidParameter(fmt::format("{}: {}", key, e.what()));
+    if (k == key) throw;
+    throw InvalidParameter(fmt::format("{}: {}", printable(key), e.what()));  // the key as written, then the key
   }
-  k.set(params, key, value);
 }
 
 Params params_from_json(const json& object, const Params& base) {
   if (!object.is_object())
-    throw InvalidParameter(fmt::format("parameters: expected a JSON object of keys, got {}", object.type_name()));
+    throw InvalidParameter(fmt::format("parameters: expected an object of keys and values, got {}", object.type_name()));
   Params params = base;
   // Precedence: preset < smoothness, detail < every other key, whatever the order in the object.
   const auto find = [&](const char* wanted) -> const json* {
@@ -327,13 +157,28 @@ Params params_from_json(const json& object, const Params& base) {
 }
 
 Params read_config(const std::string& path, const Params& base) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError(fmt::format("{}: cannot open the configuration file", path));
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw IoError(fmt::format("{}: cannot read the configuration file", path));
+  // A configuration is a few hundred bytes; more than this is not one (a wrong path, /dev/zero).
+  constexpr std::size_t kMaxConfigBytes = std::size_t(16) << 20;
+  const io::ByteBuffer bytes = io::read_file_bytes(path, {kMaxConfigBytes, "the 16 MB a configuration file may hold"});
+  const std::string text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+  // One JSON object, with each key once: nlohmann keeps the last of two equal keys silently, so
+  // the parser's callback keeps the keys of every open object.
+  std::vector<std::vector<std::string>> open_objects;
+  std::string duplicate;
+  const json::parser_callback_t check_keys = [&](int, json::parse_event_t event, json& parsed) {
+    if (event == json::parse_event_t::object_start) open_objects.emplace_back();
+    if (event == json::parse_event_t::object_end && !open_objects.empty()) open_objects.pop_back();
+    if (event == json::parse_event_t::key && !open_objects.empty() && duplicate.empty()) {
+      std::vector<std::string>& keys = open_objects.back();
+      const std::string key = parsed.get<std::string>();
+      if (std::find(keys.begin(), keys.end(), key) != keys.end()) duplicate = key;
+      keys.push_back(key);
+    }
+    return true;
+  };
   json document;
   try {
-    document = json::parse(text);
+    document = json::parse(text, check_keys);
   } catch (const json::parse_error& e) {
     // e.byte is 1-based (the byte that could not be read; one past the end for a truncated file).
     std::string message = e.what();
@@ -341,6 +186,20 @@ Params read_config(const std::string& path, const Params& base) {
     if (colon != std::string::npos) message = message.substr(colon + 2);
     throw FormatError(path, fmt::format("line {}", line_of(text, e.byte == 0 ? 0 : e.byte - 1)),
                       "malformed JSON: " + message);
+  } catch (const json::out_of_range& e) {
+    // A number beyond double's range (1e400); nlohmann names it but not where it is.
+    const std::string message = e.what();
+    const std::size_t quote = message.find('\'');
+    const std::string number = quote == std::string::npos ? "" : message.substr(quote + 1, message.find('\'', quote + 1) - quote - 1);
+    const std::size_t at = number.empty() ? std::string::npos : text.find(number);
+    throw FormatError(path, at == std::string::npos ? "" : fmt::format("line {}", line_of(text, at)),
+                      fmt::format("the number {} is beyond the range of a double (about ±1.8e308)", number));
+  }
+  if (!duplicate.empty()) {
+    const std::string quoted = "\"" + duplicate + "\"";
+    const std::size_t first = text.find(quoted), second = first == std::string::npos ? first : text.find(quoted, first + 1);
+    throw FormatError(path, second == std::string::npos ? "" : fmt::format("line {}", line_of(text, second)),
+                      fmt::format("the key \"{}\" is given twice; give each parameter once", duplicate));
   }
   if (!document.is_object())
     throw FormatError(path, "", fmt::format("expected a JSON object of parameters, got {}", document.type_name()));
@@ -350,6 +209,9 @@ Params read_config(const std::string& path, const Params& base) {
   try {
     return params_from_json(object, base);
   } catch (const InvalidParameter& e) {
+    // The key as the file writes it, whichever front end reads the file.
+    if (!e.key().empty())
+      throw InvalidParameter(fmt::format("{}: {} = {}: {}", path, e.key(), printable(e.value()), e.expectation()));
     throw InvalidParameter(fmt::format("{}: {}", path, e.what()));
   }
 }

@@ -8,6 +8,8 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
+#include <span>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -25,6 +27,7 @@
 #include "field/kernel_field.hpp"
 #include "field/kernel_impl.hpp"
 #include "grid/hash_grid.hpp"
+#include "grid/key_index.hpp"
 #include "memory_scope.hpp"
 #include "mesh/clip.hpp"
 #include "mesh/decimate.hpp"
@@ -32,6 +35,7 @@
 #include "meniscus/backend.hpp"
 #include "meniscus/distributed.hpp"
 #include "meniscus/errors.hpp"
+#include "meniscus/messages.hpp"
 #include "meniscus/memory.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "meniscus/resources.hpp"
@@ -55,8 +59,28 @@ double Stats::total_seconds() const {
 
 namespace {
 
-/// The default --max-memory: 90 % of what the process is granted (resources.hpp).
-constexpr double kMemoryShare = 0.9;
+/// The finest cell or voxel surfaced: single precision squares distances, and below this their
+/// squares come near the smallest normal float (1e-38).
+constexpr double kMinSpacing = 1e-12;
+
+/// Refuses (InputError) a cell of `cell` below kMinSpacing, and a particle farther from the
+/// origin than a grid axis of such cells holds (kMaxCoord), naming it: a stray far from the fluid.
+/// `first`: the index of positions[0] in the frame; `what`: the cells, for the message.
+void check_coordinates(std::span<const Vec3f> positions, std::size_t first, double cell, std::string_view what) {
+  const double limit = double(kMaxCoord) * cell;
+  if (!(cell >= kMinSpacing))
+    throw InputError(fmt::format("{} would be {:.3g} wide: particles this close cannot be surfaced in single precision "
+                                 "(their squared distances underflow); scale the scene up, e.g. to metres",
+                                 what, cell));
+  for (std::size_t i = 0; i < positions.size(); ++i) {
+    const Vec3f p = positions[i];
+    if (std::abs(double(p.x)) < limit && std::abs(double(p.y)) < limit && std::abs(double(p.z)) < limit) continue;
+    throw InputError(fmt::format("particle {} lies at ({:g}, {:g}, {:g}), more than {} of {} ({:.3g}) from the "
+                                 "origin, which a grid axis cannot hold: a stray or corrupt value far from the fluid "
+                                 "(leave it out with {}), or a scene to move nearer the origin",
+                                 first + i, p.x, p.y, p.z, kMaxCoord, what, cell, spelled("particle_box")));
+  }
+}
 
 class StageTimer {
  public:
@@ -90,7 +114,7 @@ void check_particles(const ParticleSet& particles) {
   for (std::size_t i = 0; i < particles.size(); ++i) {
     const Vec3f p = particles.positions[i];
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-      throw InvalidParameter(fmt::format("particle {} has a non-finite coordinate ({}, {}, {})", i, p.x, p.y, p.z));
+      throw InputError(fmt::format("particle {} has a non-finite coordinate ({}, {}, {})", i, p.x, p.y, p.z));
   }
 }
 
@@ -118,9 +142,10 @@ std::vector<uint64_t> checked_band_blocks(const HashGrid& grid, const SampleLatt
   const double bound = double(grid.cell_keys().size()) * span * span * span;
   const auto refuse = [&](double blocks) {
     throw ResourceError(fmt::format(
-        "the distance field would need about {:.1f} GB ({:.3g} blocks of {} samples at voxel size {:g}), more than "
-        "the {:.1f} GB allowed; use a larger --voxel-size or raise --max-memory",
-        blocks * kBlockSamples * 4 / 1e9, blocks, kBlockSamples, p.voxel_size, max_bytes / 1e9));
+        "the distance field would need about {} ({:.3g} blocks of {} samples at voxel size {:g}), more than "
+        "the {} allowed ({}); use a larger {} or raise {}",
+        human_bytes(blocks * kBlockSamples * 4), blocks, kBlockSamples, p.voxel_size, human_bytes(max_bytes), limit_from,
+        spelled("voxel_size"), spelled("max_memory_gb")));
   };
   if (bound * 8.0 > max_bytes) refuse(bound);
   std::vector<uint64_t> keys = band_blocks(grid, lattice, band);
@@ -128,10 +153,10 @@ std::vector<uint64_t> checked_band_blocks(const HashGrid& grid, const SampleLatt
   const double resident = resident_bytes(), need = resident + double(keys.size()) * kRunBytesPerBandBlock;
   if (need > max_bytes)
     throw ResourceError(fmt::format(
-        "this frame would need about {:.2f} GB ({:.0f} MB in use, {} field blocks at voxel size {:g} for the field, the "
-        "mesh and its smoothing), more than the {:.2f} GB allowed ({}); use a larger --voxel-size, or give the job "
-        "more memory (--max-memory, Slurm's --mem)",
-        need / 1e9, resident / 1e6, keys.size(), p.voxel_size, max_bytes / 1e9, limit_from));
+        "this frame would need about {} ({} in use, {} field blocks at voxel size {:g} for the field, the mesh and its "
+        "smoothing), more than the {} allowed ({}); use a larger {}, or give the job more memory ({}, Slurm's --mem)",
+        human_bytes(need), human_bytes(resident), keys.size(), p.voxel_size, human_bytes(max_bytes), limit_from,
+        spelled("voxel_size"), spelled("max_memory_gb")));
   return keys;
 }
 
@@ -220,21 +245,40 @@ double estimate_spacing(const ParticleSet& particles, std::size_t max_samples) {
 
 double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::size_t n, const Reduce& reduce,
                               std::size_t max_samples) {
-  if (n < 2) throw InvalidParameter("cannot estimate the particle spacing from fewer than 2 particles; pass --spacing");
-  // The frame's box: −hi is reduced by min with lo.
+  if (n < 2)
+    throw InputError(fmt::format("cannot estimate the particle spacing from fewer than 2 particles; give {}",
+                                 spelled("spacing")));
+  // The box of the bulk of the frame: each axis without its extreme half-percent (of a sample of
+  // each part), so that one stray far away (a corrupt value, a particle flung out) neither makes
+  // the search cells huge nor hides the spacing. −hi is reduced by min with lo.
   std::vector<float> box(6, INFINITY);
-  for (const Vec3f& p : part.positions)
-    for (int c = 0; c < 3; ++c) box[std::size_t(c)] = std::min(box[std::size_t(c)], p[c]), box[std::size_t(c) + 3] = std::min(box[std::size_t(c) + 3], -p[c]);
+  {
+    const std::size_t held = part.positions.size(), step = std::max<std::size_t>(1, held / 20000);
+    std::array<std::vector<float>, 3> axis;
+    for (std::size_t i = 0; i < held; i += step)
+      for (int c = 0; c < 3; ++c) axis[std::size_t(c)].push_back(part.positions[i][c]);
+    for (std::size_t c = 0; c < 3 && held > 0; ++c) {
+      std::vector<float>& v = axis[c];
+      const std::size_t cut = v.size() / 200;
+      std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(cut), v.end());
+      box[c] = v[cut];
+      std::nth_element(v.begin(), v.end() - 1 - std::ptrdiff_t(cut), v.end());
+      box[c + 3] = -v[v.size() - 1 - cut];
+    }
+  }
   reduce.min(box);
   const Vec3f lo{box[0], box[1], box[2]}, hi{-box[3], -box[4], -box[5]};
-  const Vec3f ext = hi - lo;
-  const double diag = length(ext);
-  if (!(diag > 0)) throw InvalidParameter("all particles are at the same position; cannot estimate the spacing");
+  const double ex = double(hi.x) - double(lo.x), ey = double(hi.y) - double(lo.y), ez = double(hi.z) - double(lo.z);
+  const double diag = std::sqrt(ex * ex + ey * ey + ez * ez);
+  if (!(diag > 0))
+    throw InputError(fmt::format("all particles are at one position ({:g}, {:g}, {:g}): there is no spacing to "
+                                 "estimate nor a volume to surface",
+                                 lo.x, lo.y, lo.z));
   // A cell size of about one particle per cell if they filled their bounding box (a lower
   // bound on the volume: flat sets use the area instead).
-  double volume = double(std::max(ext.x, 1e-6f * float(diag))) * std::max(ext.y, 1e-6f * float(diag)) *
-                  std::max(ext.z, 1e-6f * float(diag));
+  const double volume = std::max(ex, 1e-6 * diag) * std::max(ey, 1e-6 * diag) * std::max(ez, 1e-6 * diag);
   const float cell = float(std::max(std::cbrt(volume / double(n)), diag * 1e-5));
+  check_coordinates(part.positions, first, cell, "the cells of the spacing's estimate");
   const HashGrid grid(part.positions, cell);
   const std::size_t samples = std::min(n, max_samples);
   const std::size_t stride = n / samples;
@@ -284,7 +328,7 @@ double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::s
   nn.reserve(samples);
   for (float d2 : nearest)
     if (std::isfinite(d2)) nn.push_back(std::sqrt(d2));
-  if (nn.empty()) throw InvalidParameter("cannot estimate the particle spacing: no two distinct particles");
+  if (nn.empty()) throw InputError("cannot estimate the particle spacing: no two distinct particles");
   auto mid = nn.begin() + std::ptrdiff_t(nn.size() / 2);
   std::nth_element(nn.begin(), mid, nn.end());
   const float median_nn = *mid;
@@ -313,6 +357,7 @@ Params resolve_params(const ParticleSet& particles, const Params& in) {
   if (p.spacing == 0) p.spacing = estimate_spacing(particles);
   const double d = p.spacing;
   if (p.voxel_size == 0) p.voxel_size = d / (2 * p.detail);
+  check_coordinates(particles.positions, 0, p.voxel_size, "the field's voxels");
   if (p.r_outer == 0) p.r_outer = std::max(p.r_outer_factor * d, in.r_inner > 0 ? in.r_inner * 2 : 0.0);
   if (p.r_inner == 0) p.r_inner = 0.5 * p.r_outer;
   if (p.transfer_radius == 0) p.transfer_radius = 2 * d;
@@ -341,7 +386,7 @@ Params resolve_params(const ParticleSet& particles, const Params& in) {
     if (const Attribute* velocity = velocity_attribute(particles))
       p.velocity_reference = velocity_reference(*velocity);
   if (p.threads == 0) p.threads = int(granted_threads().amount);
-  if (p.max_memory_gb == 0) p.max_memory_gb = kMemoryShare * granted_memory().amount / 1e9;
+  if (p.max_memory_gb == 0) p.max_memory_gb = memory_limit(0).amount / 1e9;
   p.validate();
   return p;
 }
@@ -419,7 +464,7 @@ namespace {
 /// The input checks of reconstruct(); returns the particles' velocity attribute (or null).
 const Attribute* check_inputs(const ParticleSet& particles, const Params& params) {
   check_particles(particles);
-  if (particles.size() == 0) throw InvalidParameter("no particles to surface");
+  if (particles.size() == 0) throw InputError("no particles to surface");
   for (const std::string& name : params.transfer)
     if (!particles.find(name)) {
       std::string available;
@@ -698,13 +743,9 @@ Result reconstruct(const ParticleSet& all_particles, const Params& params, const
   Params given = params;
   given.threads = int(cpus.amount);
   stats.threads_from = cpus.source;
-  if (given.max_memory_gb == 0) {
-    const Grant memory = granted_memory();
-    given.max_memory_gb = kMemoryShare * memory.amount / 1e9;
-    stats.max_memory_from = fmt::format("90 % of {}", memory.source);
-  } else {
-    stats.max_memory_from = "--max-memory";
-  }
+  const Grant memory = memory_limit(given.max_memory_gb);
+  given.max_memory_gb = memory.amount / 1e9;
+  stats.max_memory_from = memory.source;
   Params p = StageTimer(stats, progress).run("parameters", [&] { return resolve_params(particles, given); });
   stats.spacing_estimated = params.spacing == 0;
   stats.particles = particles.size();

@@ -1,6 +1,8 @@
 // meniscus — the CPUs and memory this process is granted (include/meniscus/resources.hpp).
 #include "meniscus/resources.hpp"
 
+#include "meniscus/messages.hpp"
+
 #include <fmt/format.h>
 #include <sched.h>
 #include <unistd.h>
@@ -115,6 +117,13 @@ Grant granted_memory(const EnvFn& env, const std::string& proc_self_cgroup, cons
   }
   if (slurm > 0 && slurm < g.amount) g = {slurm, fmt::format("Slurm's grant ({})", source)};
   return g;
+}
+
+Grant memory_limit(double max_memory_gb, const EnvFn& env) {
+  if (max_memory_gb > 0) return {max_memory_gb * 1e9, spelled("max_memory_gb")};
+  constexpr double kShare = 0.9;
+  const Grant granted = granted_memory(env);
+  return {kShare * granted.amount, fmt::format("90 % of {}", granted.source)};
 }
 
 }  // namespace meniscus

@@ -16,6 +16,11 @@ struct ReadOptions {
   /// Column names for headerless text particle files (.csv/.txt), e.g. SPHysics IPART:
   /// {"x","y","z","vx","vy","vz","rho","p","mass"}. Empty: the first line must name the columns.
   std::vector<std::string> columns;
+  /// The most memory the read may hold — the file's bytes (inflated as they arrive when it is
+  /// gzip-compressed) and the particles decoded from them — in GB; 0: 90 % of the memory the
+  /// process is granted, as Params::max_memory_gb. A file past it is refused with ResourceError
+  /// naming the file, how much was read and the limit, before the memory is taken.
+  double max_memory_gb = 0;
 };
 
 struct ReadReport {
@@ -47,8 +52,9 @@ ParticleSet read_particle_range(const std::string& path, std::size_t first, std:
 /// leaves a partial file. Throws IoError / InvalidParameter (unknown extension).
 void write_mesh(const std::string& path, const TriangleMesh& mesh);
 
-/// Reads a triangle mesh (.ply ascii/binary with a face list). Used by tests and `inspect`.
-TriangleMesh read_mesh(const std::string& path);
+/// Reads a triangle mesh (any format of mesh_formats() but .usda). Used by `inspect`, `render`,
+/// `merge` and the tests. `max_memory_gb` bounds the bytes read as ReadOptions::max_memory_gb does.
+TriangleMesh read_mesh(const std::string& path, double max_memory_gb = 0);
 
 /// File extensions understood, for `meniscus info`.
 std::vector<std::string> particle_formats();

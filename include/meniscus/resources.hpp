@@ -28,4 +28,9 @@ Grant granted_threads(const EnvFn& env = {});
 Grant granted_memory(const EnvFn& env = {}, const std::string& proc_self_cgroup = "/proc/self/cgroup",
                      const std::string& cgroup_root = "/sys/fs/cgroup");
 
+/// The memory a run may use, in bytes: `max_memory_gb` when it is given (> 0), else 90 % of
+/// granted_memory() (the rest is the margin for what estimates miss). `source` says which:
+/// "--max-memory" or "90 % of the cgroup limit (…)".
+Grant memory_limit(double max_memory_gb, const EnvFn& env = {});
+
 }  // namespace meniscus

@@ -15,16 +15,18 @@ The keyword parameters of :func:`reconstruct` are the CLI's options with ``_`` f
 ``preset``, ``smoothness`` and ``detail``; they go through the same code as ``--config`` files,
 so a name means the same everywhere.
 
-Errors are raised with the library's messages (what the CLI prints after ``meniscus: error:``):
+Errors are raised with the library's messages (what the CLI prints after ``meniscus: error:``,
+with parameters named as keywords: ``steps_a=20001: must be a whole number from 0 to 10000``):
 
 =================================  ============================================================
 ``ValueError``                     a bad parameter (unknown name, out of range, wrong type of
-                                   value) or a bad array shape; ``TypeError`` for a value of an
-                                   unusable Python type
+                                   value), a bad array shape, or particles that cannot be
+                                   surfaced (fewer than 2, all at one point, a stray far
+                                   away); ``TypeError`` for a value of an unusable Python type
 :class:`FormatError` (ValueError)  a file that cannot be parsed; names the file, the byte offset
                                    or line and what was expected (``.file``, ``.location``)
 ``OSError``                        a file that cannot be opened, read or written
-``MemoryError``                    a job that would need more memory than allowed
+``MemoryError``                    a job or a file that would need more memory than allowed
                                    (``max_memory_gb``), refused before allocating
 =================================  ============================================================
 
@@ -48,6 +50,7 @@ __all__ = [
     "Particles",
     "estimate_spacing",
     "mesh_formats",
+    "parameters",
     "particle_formats",
     "preset_names",
     "read_mesh",
@@ -167,15 +170,17 @@ def reconstruct(positions, attributes=None, *, progress=None, **params):
     return Mesh._from_core(arrays, _json.loads(arrays["stats"]))
 
 
-def read_particles(path, columns=None, drop_invalid=False):
+def read_particles(path, columns=None, drop_invalid=False, max_memory_gb=0):
     """Reads a particle file (any format of ``meniscus info``: .bgeo/.bgeo.sc, .vtk, .vtu/.vtp,
     .ply, .csv/.txt, .npy, .xyz; gzip by content) into a :class:`Particles`.
 
-    ``columns``      names for headerless text columns, e.g. ``["x", "y", "z", "vx", "vy", "vz"]``
-    ``drop_invalid`` drop particles with NaN/Inf coordinates instead of raising FormatError
+    ``columns``       names for headerless text columns, e.g. ``["x", "y", "z", "vx", "vy", "vz"]``
+    ``drop_invalid``  drop particles with NaN/Inf coordinates instead of raising FormatError
+    ``max_memory_gb`` the most memory the read may hold (the file, inflated, and the particles);
+                      0: 90 % of the memory granted. Past it: MemoryError, before it is taken
     """
     positions, attributes, fmt, dropped = _core.read_particles(
-        str(path), list(columns or []), bool(drop_invalid))
+        str(path), list(columns or []), bool(drop_invalid), float(max_memory_gb))
     return Particles(positions, attributes, fmt, dropped)
 
 
@@ -200,6 +205,13 @@ def estimate_spacing(positions):
     if isinstance(positions, Particles):
         positions = positions.positions
     return _core.estimate_spacing(positions)
+
+
+def parameters():
+    """The table of parameters, a list of dicts (``key``, ``type``, ``default``, ``min``, ``max``,
+    ``accepts``, ``help`` …): the keywords of :func:`reconstruct` with their ranges, the same table
+    the CLI's options and ``--config`` files come from."""
+    return _json.loads(_core.parameter_table())
 
 
 def preset_names():

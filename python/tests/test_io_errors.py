@@ -17,6 +17,14 @@ def cli_error(result):
     return line.removeprefix("meniscus: error: ")
 
 
+def as_keywords(cli_message):
+    """The CLI's message with its options spelled as the Python keywords of the same parameters
+    (the table of parameters maps one onto the other): "--relax 5: …" → "relax=5: …"."""
+    options = {p["option"]: p["key"] for p in meniscus.parameters() if p["option"]}
+    message = re.sub(r"^(--[a-z-]+) (\S+?):", lambda m: f"{options[m.group(1)]}={m.group(2)}:", cli_message)
+    return re.sub(r"--[a-z][a-z-]*", lambda m: options.get(m.group(0), m.group(0)), message)
+
+
 def data_files(data):
     return sorted(p for p in data.rglob("*") if re.search(r"_(\d+)_(particles|points)\.", p.name))
 
@@ -99,15 +107,19 @@ def test_unknown_keyword_is_a_value_error_naming_it():
 def test_parameter_errors_have_the_clis_messages(cli, tmp_path):
     positions = lattice_block((4, 4, 4))
     np.save(tmp_path / "block.npy", positions)
-    cases = [({"relax": 5.0}, ["--relax", "5"]),
+    # The same message, each naming the parameter its own way: "relax=5: …" and "--relax 5: …".
+    cases = [({"relax": 5}, ["--relax", "5"]),
              ({"spacing": 0.1, "r_inner": 0.2, "r_outer": 0.1}, ["--spacing", "0.1", "--r-inner", "0.2", "--r-outer", "0.1"]),
              ({"smoothness": 1.5}, ["--smoothness", "1.5"]),
+             ({"steps_a": 20001}, ["--steps-a", "20001"]),
              ({"preset": "fast"}, ["--preset", "fast"])]
     for kwargs, options in cases:
         with pytest.raises(ValueError) as error:
             meniscus.reconstruct(positions, **kwargs)
-        expected = cli_error(cli("surface", tmp_path / "block.npy", "-o", tmp_path / "out.ply", *options, check=False))
-        assert str(error.value) == expected, kwargs
+        cli_message = cli_error(cli("surface", tmp_path / "block.npy", "-o", tmp_path / "out.ply", *options, check=False))
+        assert str(error.value) == as_keywords(cli_message), kwargs
+        assert str(error.value).startswith(next(iter(kwargs)) + "=") or "r_inner=" in str(error.value)
+        assert "--" not in str(error.value), str(error.value)
 
 
 def test_values_of_the_wrong_type():
@@ -134,9 +146,10 @@ def test_too_much_memory_is_a_memory_error_with_the_clis_message(cli, tmp_path):
     np.save(tmp_path / "block.npy", positions)
     with pytest.raises(MemoryError) as error:
         meniscus.reconstruct(positions, spacing=0.1, voxel_size=0.0005, max_memory_gb=0.001)
-    expected = cli_error(cli("surface", tmp_path / "block.npy", "-o", tmp_path / "out.ply", "--spacing", "0.1",
-                             "--voxel-size", "0.0005", "--max-memory", "0.001", check=False))
-    assert str(error.value) == expected
+    cli_message = cli_error(cli("surface", tmp_path / "block.npy", "-o", tmp_path / "out.ply", "--spacing", "0.1",
+                                "--voxel-size", "0.0005", "--max-memory", "0.001", check=False))
+    assert str(error.value) == as_keywords(cli_message)
+    assert "max_memory_gb" in str(error.value)
 
 
 def test_truncated_file_is_a_format_error_with_the_byte_offset(cli, data, tmp_path):

@@ -9,6 +9,7 @@
 #include "cuda/stages_cuda.hpp"
 #include "extract/field_band.hpp"
 #include "meniscus/errors.hpp"
+#include "meniscus/messages.hpp"
 #include "mesh/voids.hpp"
 
 namespace meniscus::cuda {
@@ -67,8 +68,8 @@ void check_fits(double bytes, const char* what) {
   std::size_t free_bytes = 0, total_bytes = 0;
   MENISCUS_CUDA_CHECK(cudaMemGetInfo(&free_bytes, &total_bytes));
   if (bytes > 0.9 * double(free_bytes))
-    throw ResourceError(fmt::format("the CUDA device has {:.2f} GB free, {} would need about {:.2f} GB",
-                                    double(free_bytes) / 1e9, what, bytes / 1e9));
+    throw ResourceError(fmt::format("the CUDA device has {} free, {} would need about {}",
+                                    human_bytes(double(free_bytes)), what, human_bytes(bytes)));
 }
 
 }  // namespace
@@ -200,9 +201,11 @@ class DevicePipeline {
       const double cells = double(kBlockSamples / plan_.lattice.samples_per_cell());
       const double bytes = double(blocks) * (kBlockSamples * 4.0 + 8.0 + cells * (1.0 + 2.0 * 16.0));
       if (bytes > p_.max_memory_gb * 1e9)
-        throw ResourceError(fmt::format("the {} field would need about {:.1f} GB ({} blocks), more than the "
-                                        "{:.1f} GB allowed; use a larger --voxel-size or raise --max-memory",
-                                        to_string(plan_.field), bytes / 1e9, blocks, p_.max_memory_gb));
+        throw ResourceError(fmt::format("the {} field would need about {} ({} blocks), more than the {} allowed; use "
+                                        "a larger {} or raise {}",
+                                        to_string(plan_.field), human_bytes(bytes), blocks,
+                                        human_bytes(p_.max_memory_gb * 1e9), spelled("voxel_size"),
+                                        spelled("max_memory_gb")));
       check_fits(bytes, "the field and the extraction");
       if (!plan_.kernel_field) return distance_field(grid_, plan_.lattice, band, std::move(keys), blocks);
       const float iso = float(p_.iso);

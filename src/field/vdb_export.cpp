@@ -1,16 +1,28 @@
 // meniscus — the distance field as an OpenVDB level set (Museth 2013), for Houdini and Blender.
 #include <openvdb/openvdb.h>
 
-#include <filesystem>
 #include <fmt/format.h>
-#include <random>
-#include <unistd.h>
+#include <sstream>
 
 #include "field/distance_field.hpp"
 #include "field/vdb_export.hpp"
+#include "io/atomic_file.hpp"
 #include "meniscus/errors.hpp"
 
 namespace meniscus {
+
+namespace {
+
+/// openvdb::io::File's layout on any seekable stream: File itself writes only to a path, through
+/// an std::ofstream whose failures (a full disk) it does not report.
+class SeekableArchive : public openvdb::io::Archive {
+ public:
+  void write_to(std::ostream& out, const openvdb::GridPtrVec& grids) const {
+    Archive::write(out, grids, /*seekable=*/true, openvdb::MetaMap());
+  }
+};
+
+}  // namespace
 
 bool has_openvdb() { return true; }
 
@@ -45,21 +57,16 @@ void write_field_vdb(const std::string& path, const ParticleSet& particles, cons
   vdb->insertMeta("meniscus_r_outer", openvdb::FloatMetadata(r_outer));
   vdb->insertMeta("meniscus_spacing", openvdb::FloatMetadata(float(p.spacing)));
 
-  // Written beside the target and renamed, like every other output.
-  const std::filesystem::path target(path);
-  std::mt19937_64 rng{std::random_device{}()};
-  const std::filesystem::path temp =
-      target.parent_path() / fmt::format(".{}.tmp-{}-{:x}", target.filename().string(), getpid(), rng());
-  try {
-    openvdb::io::File file(temp.string());
-    file.write(openvdb::GridPtrVec{vdb});
-    file.close();
-    std::filesystem::rename(temp, target);
-  } catch (const std::exception& e) {
-    std::error_code ec;
-    std::filesystem::remove(temp, ec);
-    throw IoError(fmt::format("{}: cannot write the field: {}", path, e.what()));
-  }
+  // Through the one atomic writer, like every other output: the archive is laid out in memory
+  // exactly as openvdb::io::File lays out a file (a seekable stream, so the grid offsets are
+  // written), then written, synced and renamed, and every failure is reported.
+  std::stringstream bytes(std::ios::in | std::ios::out | std::ios::binary);
+  SeekableArchive().write_to(bytes, openvdb::GridPtrVec{vdb});
+  if (!bytes) throw IoError(fmt::format("{}: cannot write the field: the archive could not be encoded", path));
+  const std::string data = std::move(bytes).str();
+  io::AtomicFile file(path);
+  file.write(data);
+  file.commit();
 }
 
 }  // namespace meniscus

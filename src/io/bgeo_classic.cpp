@@ -137,6 +137,8 @@ Decoded decode(const Source& source, bool want_polygons) {
   Decoded d;
   const std::size_t point_words = 4 + words(point_dict);
   c.require_records(n.points, point_words * 4, "points");
+  check_read_memory(source, double(n.points) * double(point_words - 1) * 4,
+                    fmt::format("{} points of {} values", n.points, point_words - 1));
   d.points.positions.resize(n.points);
   for (const DictionaryEntry& e : point_dict) {
     Attribute a;
@@ -224,6 +226,16 @@ Decoded decode(const Source& source, bool want_polygons) {
   if (d.primitives_complete && n.point_groups == 0 && n.prim_groups == 0) {
     const std::vector<DictionaryEntry> detail_dict = read_dictionary(c, n.detail_attributes, "detail");
     c.skip(4 * words(detail_dict), "the detail attribute values");
+    // Then the file ends, after the "extra" section's begin and end bytes (00 ff) where the
+    // writer adds them. Bytes beyond mean the counts do not describe the file (a point count one
+    // too low would otherwise drop the last point silently).
+    const std::size_t end_at = c.offset();
+    const ByteView rest = source.bytes.subspan(end_at);
+    const bool trailer = rest.empty() || (rest.size() == 2 && rest[0] == 0x00 && rest[1] == 0xff);
+    if (!trailer)
+      c.fail_at(end_at, fmt::format("expected the end of the file after the {} points and {} primitives its header "
+                                    "counts, found {} more bytes (do the counts match the data?)",
+                                    n.points, n.prims, rest.size()));
   }
   return d;
 }

@@ -619,7 +619,10 @@ std::size_t checked_point_count(const BinaryJson& json, const Geometry& g, std::
 }
 
 // P → positions, every other numeric point attribute → an Attribute under its file name.
-ParticleSet points_of(const BinaryJson& json, const Geometry& g, std::size_t count) {
+ParticleSet points_of(const Source& source, const BinaryJson& json, const Geometry& g, std::size_t count) {
+  std::size_t per_point = 0;
+  for (const PointAttribute& a : g.attributes) per_point += std::size_t(std::max<int64_t>(a.tuple_size, 0));
+  check_particle_memory(source, count, per_point);
   ParticleSet particles;
   bool have_position = false;
   for (const PointAttribute& a : g.attributes) {
@@ -944,7 +947,7 @@ bool sniff_bgeo_json(ByteView bytes) {
 ParticleSet read_bgeo_json_particles(const Source& source, const ReadOptions& /*options*/, ReadReport* report) {
   BinaryJson json(source);
   const Geometry g = read_geometry(json, false);
-  ParticleSet particles = points_of(json, g, checked_point_count(json, g, source.bytes.size()));
+  ParticleSet particles = points_of(source, json, g, checked_point_count(json, g, source.bytes.size()));
   if (report) report->format = "bgeo (binary JSON)";
   return particles;
 }
@@ -953,7 +956,7 @@ TriangleMesh read_bgeo_json_mesh(const Source& source) {
   BinaryJson json(source);
   const Geometry g = read_geometry(json, true);
   const std::size_t count = checked_point_count(json, g, source.bytes.size());
-  ParticleSet points = points_of(json, g, count);
+  ParticleSet points = points_of(source, json, g, count);
   TriangleMesh mesh;
   mesh.triangles = triangles_of(json, g, count);
   mesh.vertices = std::move(points.positions);

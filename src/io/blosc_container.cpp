@@ -18,6 +18,7 @@
 
 #include "io/bgeo_json.hpp"
 #include "meniscus/errors.hpp"
+#include "meniscus/messages.hpp"
 #include "meniscus/mesh.hpp"
 
 namespace meniscus::io {
@@ -47,7 +48,7 @@ bool sniff_blosc_container(ByteView bytes) {
   return bytes.size() >= 4 && bytes[0] == 's' && bytes[1] == 'c' && bytes[2] == 'f' && bytes[3] == '1';
 }
 
-Bytes decompress_blosc_container(ByteView bytes, const std::string& path) {
+Bytes decompress_blosc_container(ByteView bytes, const std::string& path, const ReadLimit& limit) {
   ByteCursor c(bytes, path);
   const ByteView magic = c.take(4, "the 'scf1' magic");
   if (!std::equal(magic.begin(), magic.end(), "scf1")) c.fail_at(0, "expected the '.bgeo.sc' magic 'scf1'");
@@ -116,6 +117,10 @@ Bytes decompress_blosc_container(ByteView bytes, const std::string& path) {
     total += nbytes;
   }
 
+  if (limit.bytes && double(total) + double(bytes.size()) > double(limit.bytes))
+    throw ResourceError(fmt::format("'{}': its Blosc chunks decompress to {} beside the {} read: more than {}",
+                                    printable(path), human_bytes(double(total)), human_bytes(double(bytes.size())),
+                                    limit.description));
   Bytes out(static_cast<std::size_t>(total));
   std::size_t used = 0;
   for (std::size_t i = 0; i < chunks; ++i) {
@@ -133,17 +138,28 @@ Bytes decompress_blosc_container(ByteView bytes, const std::string& path) {
   return out;
 }
 
+namespace {
+
+/// What the decompressed stream may hold besides the container's bytes.
+ReadLimit inner_limit(const Source& source) {
+  ReadLimit inner = source.limit;
+  if (inner.bytes) inner.bytes = inner.bytes > source.bytes.size() ? inner.bytes - source.bytes.size() : 1;
+  return inner;
+}
+
+}  // namespace
+
 ParticleSet read_bgeo_sc_particles(const Source& source, const ReadOptions& options, ReadReport* report) {
-  const Bytes plain = decompress_blosc_container(source.bytes, source.path);
-  const Source inner{plain, source.path, true};
+  const Bytes plain = decompress_blosc_container(source.bytes, source.path, source.limit);
+  const Source inner{plain, source.path, true, inner_limit(source)};
   ParticleSet particles = read_bgeo_json_particles(inner, options, report);
   if (report) report->format = "bgeo.sc (Blosc-compressed binary JSON bgeo)";
   return particles;
 }
 
 TriangleMesh read_bgeo_sc_mesh(const Source& source) {
-  const Bytes plain = decompress_blosc_container(source.bytes, source.path);
-  return read_bgeo_json_mesh(Source{plain, source.path, true});
+  const Bytes plain = decompress_blosc_container(source.bytes, source.path, source.limit);
+  return read_bgeo_json_mesh(Source{plain, source.path, true, inner_limit(source)});
 }
 
 BloscContainerWriter::BloscContainerWriter(std::string path) : path_(std::move(path)) { plain_.reserve(write_chunk_size); }

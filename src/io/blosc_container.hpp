@@ -17,7 +17,7 @@ bool sniff_blosc_container(ByteView bytes);
 /// The concatenated decompressed chunks of a ".bgeo.sc" file. The index is checked against the
 /// file size and every chunk's header against the index before anything is allocated or
 /// decompressed. Throws FormatError (file, byte offset in the file, expectation).
-Bytes decompress_blosc_container(ByteView bytes, const std::string& path);
+Bytes decompress_blosc_container(ByteView bytes, const std::string& path, const ReadLimit& limit = {});
 
 /// A ".bgeo.sc" file: decompressed, then read as binary-JSON bgeo (error offsets of that stage
 /// count bytes of the decompressed stream).

@@ -10,6 +10,7 @@
 #include <fmt/ranges.h>
 
 #include "meniscus/errors.hpp"
+#include "meniscus/messages.hpp"
 
 namespace meniscus::io {
 
@@ -172,8 +173,9 @@ ParticleSet read_csv_particles(const Source& source, const ReadOptions& options,
   } else {
     if (numeric && !hashed)
       throw FormatError(file, fmt::format("line {}", first_line),
-                        "expected a header line naming the columns (e.g. 'x,y,z,vx,vy,vz'), found numbers; pass "
-                        "ReadOptions::columns to name the columns of a headerless file");
+                        fmt::format("expected a header line naming the columns (e.g. 'x,y,z,vx,vy,vz'), found numbers; "
+                                    "give {} to name the columns of a headerless file",
+                                    spelled_setting("columns", "x,y,z,...")));
     for (const std::string_view f : fields) names.emplace_back(f);
   }
 
@@ -187,7 +189,7 @@ ParticleSet read_csv_particles(const Source& source, const ReadOptions& options,
   if (ix == names.size() || iy == names.size() || iz == names.size())
     throw FormatError(file, options.columns.empty() ? fmt::format("line {}", first_line) : "",
                       fmt::format("expected columns named x, y and z, found {} ({})",
-                                  options.columns.empty() ? "the header" : "ReadOptions::columns",
+                                  options.columns.empty() ? "the header" : spelled("columns"),
                                   fmt::join(names, ", ")));
   for (std::size_t i = 0; i < names.size(); ++i)
     for (std::size_t j = i + 1; j < names.size(); ++j)
@@ -196,7 +198,12 @@ ParticleSet read_csv_particles(const Source& source, const ReadOptions& options,
                           fmt::format("expected distinct column names, '{}' appears twice", names[i]));
 
   const std::size_t ncol = names.size();
+  // At most a row per line left: the columns are sized once, and the memory they and the
+  // particles take is checked before they are.
+  const std::size_t rows = (first_is_data ? 1 : 0) + std::size_t(std::count(text.begin() + std::ptrdiff_t(std::min(pos, text.size())), text.end(), '\n')) + 1;
+  check_particle_memory(source, rows, ncol);
   std::vector<std::vector<float>> columns(ncol);
+  for (std::vector<float>& column : columns) column.reserve(rows);
   std::vector<bool> integral(ncol, true);
   auto read_row = [&](std::string_view line) {
     split_fields(line, sep, fields);
@@ -242,7 +249,7 @@ ParticleSet read_csv_particles(const Source& source, const ReadOptions& options,
   if (report)
     report->format = fmt::format("text ({}-separated, {})",
                                  sep == Separator::comma ? "comma" : sep == Separator::semicolon ? "semicolon" : "whitespace",
-                                 options.columns.empty() ? "header" : "ReadOptions::columns");
+                                 options.columns.empty() ? "header" : "columns given");
   return particles;
 }
 

@@ -17,21 +17,61 @@ namespace meniscus::io {
 using Bytes = std::vector<uint8_t>;
 using ByteView = std::span<const uint8_t>;
 
+/// A byte array in an anonymous mapping of its own. Growing it (mremap) never copies and never
+/// holds the old and the new block at once, and pages not written yet cost no memory, so a buffer
+/// filled up to a bound holds at most the bound: what bounded reading needs. Move-only.
+class ByteBuffer {
+ public:
+  ByteBuffer() = default;
+  ~ByteBuffer();
+  ByteBuffer(ByteBuffer&& other) noexcept;
+  ByteBuffer& operator=(ByteBuffer&& other) noexcept;
+  ByteBuffer(const ByteBuffer&) = delete;
+  ByteBuffer& operator=(const ByteBuffer&) = delete;
+
+  uint8_t* data() { return data_; }
+  const uint8_t* data() const { return data_; }
+  std::size_t size() const { return size_; }
+  bool empty() const { return size_ == 0; }
+  uint8_t operator[](std::size_t i) const { return data_[i]; }
+  const uint8_t* begin() const { return data_; }
+  const uint8_t* end() const { return data_ + size_; }
+  operator ByteView() const { return {data_, size_}; }
+
+  /// Room for `capacity` bytes, the content kept. Throws ResourceError when the system refuses.
+  void reserve(std::size_t capacity);
+  /// Grows (new bytes are zero) or shrinks the content; grows the capacity by doubling.
+  void resize(std::size_t size);
+
+ private:
+  uint8_t* data_ = nullptr;
+  std::size_t size_ = 0, capacity_ = 0, touched_ = 0;
+};
+
+/// A bound on what a read may hold in memory, and how messages describe it.
+struct ReadLimit {
+  std::size_t bytes = 0;    ///< 0: none
+  std::string description;  ///< completes "more than …": "the 200 MB that --max-memory 0.2 allows"
+};
+
 /// The whole content of `path`. Throws IoError naming the file and the system's reason when it
-/// cannot be opened or read.
-Bytes read_file_bytes(const std::string& path);
+/// cannot be opened or read, ResourceError (file, size, limit) when it holds more than
+/// `limit.bytes`: a regular file before anything is read, a pipe or device (/dev/zero) as soon
+/// as it passes the bound.
+ByteBuffer read_file_bytes(const std::string& path, const ReadLimit& limit = {});
 
 /// True when `bytes` starts with the gzip magic 1f 8b.
 bool is_gzip(ByteView bytes);
 
 /// Inflates a gzip stream (concatenated members included). `path` is only used in messages.
 /// Throws FormatError (file, compressed byte offset, what zlib expected) on corrupt or truncated
-/// input.
-Bytes gunzip(ByteView compressed, const std::string& path);
+/// input, ResourceError once the inflated bytes would pass `limit`.
+ByteBuffer gunzip(ByteView compressed, const std::string& path, const ReadLimit& limit = {});
 
-/// The content of `path`, inflated when it starts with the gzip magic (never decided by the name).
-/// `*was_gzip` (optional) tells which.
-Bytes read_file_bytes_gunzipped(const std::string& path, bool* was_gzip = nullptr);
+/// The content of `path`, inflated as it is read when it starts with the gzip magic (never
+/// decided by the name): the compressed file is streamed, never held whole, so the bytes held
+/// are the inflated ones, at most `limit.bytes`. `*was_gzip` (optional) tells which.
+ByteBuffer read_file_content(const std::string& path, const ReadLimit& limit = {}, bool* was_gzip = nullptr);
 
 enum class Endian { little, big };
 

@@ -9,7 +9,6 @@
 #include <optional>
 
 #include <fmt/format.h>
-#include <zlib.h>
 
 #include "io/atomic_file.hpp"
 #include "io/bgeo_classic.hpp"
@@ -24,6 +23,8 @@
 #include "io/vtk_legacy.hpp"
 #include "io/vtu.hpp"
 #include "meniscus/errors.hpp"
+#include "meniscus/messages.hpp"
+#include "meniscus/resources.hpp"
 
 namespace meniscus::io {
 
@@ -66,6 +67,19 @@ const std::vector<MeshWriter>& mesh_writers() {
       {"usda", {".usda"}, &write_usda_mesh},
   };
   return table;
+}
+
+void check_read_memory(const Source& source, double extra, std::string_view what) {
+  if (source.limit.bytes == 0) return;
+  const double held = double(source.bytes.size());
+  if (held + extra <= double(source.limit.bytes)) return;
+  throw ResourceError(fmt::format("'{}': {} take {} beside the {} read: more than {}", printable(source.path), what,
+                                  human_bytes(extra), human_bytes(held), source.limit.description));
+}
+
+void check_particle_memory(const Source& source, uint64_t count, std::size_t values) {
+  check_read_memory(source, 2.0 * double(count) * double(values) * sizeof(float),
+                    fmt::format("{} particles of {} values", count, values));
 }
 
 void check_mesh_for_writing(const std::string& path, const TriangleMesh& mesh, std::string_view format) {
@@ -151,9 +165,8 @@ void handle_invalid(ParticleSet& particles, const std::string& path, const ReadO
   if (!options.drop_invalid) {
     const Vec3f p = particles.positions[first_bad];
     throw FormatError(path, fmt::format("particle {}", first_bad),
-                      fmt::format("expected finite coordinates, found ({}, {}, {}) (ReadOptions::drop_invalid "
-                                  "drops such particles)",
-                                  p.x, p.y, p.z));
+                      fmt::format("expected finite coordinates, found ({}, {}, {}) ({} drops such particles)",
+                                  p.x, p.y, p.z, spelled_setting("drop_invalid", "true")));
   }
   const std::size_t dropped = particles.keep_if([](Vec3f x) { return finite(x); });
   if (report) report->dropped_invalid += dropped;
@@ -165,10 +178,24 @@ void handle_invalid(ParticleSet& particles, const std::string& path, const ReadO
 
 namespace meniscus {
 
+namespace io {
+
+ReadLimit read_limit(double max_memory_gb) {
+  const Grant limit = memory_limit(max_memory_gb);
+  return {std::size_t(limit.amount),
+          max_memory_gb > 0 ? fmt::format("the {} that {} allows", human_bytes(limit.amount),
+                                          spelled_setting("max_memory_gb", fmt::format("{:g}", max_memory_gb)))
+                            : fmt::format("the {} a run may use ({}; raise it with {})", human_bytes(limit.amount),
+                                          limit.source, spelled("max_memory_gb"))};
+}
+
+}  // namespace io
+
 ParticleSet read_particles(const std::string& path, const ReadOptions& options, ReadReport* report) {
   bool gzip = false;
-  const io::Bytes bytes = io::read_file_bytes_gunzipped(path, &gzip);
-  const io::Source source{bytes, path, gzip};
+  const io::ReadLimit limit = io::read_limit(options.max_memory_gb);
+  const io::ByteBuffer bytes = io::read_file_content(path, limit, &gzip);
+  const io::Source source{bytes, path, gzip, limit};
   const io::ParticleReader* reader = io::choose(io::particle_readers(), source);
   if (!reader) io::unknown_format(io::particle_readers(), source, "particle");
 
@@ -208,7 +235,7 @@ std::optional<Records> fixed_records(const std::string& path) {
   in.seekg(0);
   if (!in.read(reinterpret_cast<char*>(head.data()), std::streamsize(head.size()))) return std::nullopt;
   if (head.size() >= 2 && head[0] == 0x1f && head[1] == 0x8b) return std::nullopt;  // gzip
-  const io::Source source{head, path, false};
+  const io::Source source{head, path, false, {}};
   const io::ParticleReader* reader = io::choose(io::particle_readers(), source);
   if (!reader) return std::nullopt;
   Records r;
@@ -253,7 +280,7 @@ ParticleSet read_particle_range(const std::string& path, std::size_t first, std:
   in.seekg(std::streamoff(r->offset + first * r->record));
   if (!in.read(reinterpret_cast<char*>(bytes.data() + header.size()), std::streamsize(count * r->record)))
     throw IoError(fmt::format("cannot read particles {}..{} of '{}'", first, first + count, path));
-  const io::Source source{bytes, path, false};
+  const io::Source source{bytes, path, false, {}};
   const io::ParticleReader* reader = io::choose(io::particle_readers(), source);
   ParticleSet particles = reader->read(source, options, &rep);
   particles.validate();
@@ -262,50 +289,24 @@ ParticleSet read_particle_range(const std::string& path, std::size_t first, std:
     if (!options.drop_invalid && !io::finite(particles.positions[i])) {
       const Vec3f p = particles.positions[i];
       throw FormatError(path, fmt::format("particle {}", first + i),
-                        fmt::format("expected finite coordinates, found ({}, {}, {}) (ReadOptions::drop_invalid "
-                                    "drops such particles)",
-                                    p.x, p.y, p.z));
+                        fmt::format("expected finite coordinates, found ({}, {}, {}) ({} drops such particles)",
+                                    p.x, p.y, p.z, spelled_setting("drop_invalid", "true")));
     }
   io::handle_invalid(particles, path, options, &rep);
   return particles;
 }
 
-TriangleMesh read_mesh(const std::string& path) {
+TriangleMesh read_mesh(const std::string& path, double max_memory_gb) {
   bool gzip = false;
-  const io::Bytes bytes = io::read_file_bytes_gunzipped(path, &gzip);
-  const io::Source source{bytes, path, gzip};
+  const io::ReadLimit limit = io::read_limit(max_memory_gb);
+  const io::ByteBuffer bytes = io::read_file_content(path, limit, &gzip);
+  const io::Source source{bytes, path, gzip, limit};
   const io::MeshReader* reader = io::choose(io::mesh_readers(), source);
   if (!reader) io::unknown_format(io::mesh_readers(), source, "mesh");
   return reader->read(source);
 }
 
 namespace {
-
-/// `bytes` as a gzip stream (zlib's deflate with a gzip header), to `path` through AtomicFile.
-void write_gzip(const std::string& path, const io::Bytes& bytes) {
-  z_stream z{};
-  if (deflateInit2(&z, Z_DEFAULT_COMPRESSION, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK)
-    throw IoError(fmt::format("cannot write '{}': zlib could not start", path));
-  io::AtomicFile file(path);
-  std::vector<uint8_t> out(std::size_t(1) << 20);
-  std::size_t at = 0;
-  int status = Z_OK;
-  do {
-    const std::size_t in = std::min<std::size_t>(bytes.size() - at, std::size_t(1) << 30);
-    z.next_in = const_cast<Bytef*>(bytes.data() + at);
-    z.avail_in = uInt(in);
-    const int flush = at + in == bytes.size() ? Z_FINISH : Z_NO_FLUSH;
-    do {
-      z.next_out = out.data();
-      z.avail_out = uInt(out.size());
-      status = deflate(&z, flush);
-      file.write(out.data(), out.size() - z.avail_out);
-    } while (z.avail_out == 0);
-    at += in;
-  } while (status != Z_STREAM_END);
-  deflateEnd(&z);
-  file.commit();
-}
 
 /// The writer for a file name (lower case): the one with the longest extension the name ends
 /// with, so "x.bgeo.sc" goes to the .bgeo.sc writer and never to ".bgeo"'s. Sets `*ext` to it.
@@ -328,22 +329,9 @@ void write_mesh(const std::string& path, const TriangleMesh& mesh) {
   std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   std::string inner;
   const io::MeshWriter* packed = name.ends_with(".gz") ? writer_for(name.substr(0, name.size() - 3), &inner) : nullptr;
-  if (packed) {
-    // Any format, gzip-compressed (Houdini reads .bgeo.gz; our readers inflate by content): the
-    // inner format's file beside the target, compressed into the target, then removed.
-    const std::string plain = path + ".uncompressed" + inner;
-    packed->write(plain, mesh);
-    try {
-      const io::Bytes bytes = io::read_file_bytes(plain);
-      std::filesystem::remove(plain);
-      write_gzip(path, bytes);
-    } catch (...) {
-      std::error_code ignored;
-      std::filesystem::remove(plain, ignored);
-      throw;
-    }
-    return;
-  }
+  // Any format gzip-compressed (Houdini reads .bgeo.gz; our readers inflate by content): the
+  // inner format's writer, whose AtomicFile compresses a name ending in .gz as it writes.
+  if (packed) return packed->write(path, mesh);
   if (const io::MeshWriter* writer = writer_for(name, &inner)) return writer->write(path, mesh);
   throw InvalidParameter(fmt::format("cannot write '{}': unknown mesh format '{}'; supported: {}", path,
                                      ext.empty() ? "(no extension)" : ext, io::list_formats(io::mesh_writers())));

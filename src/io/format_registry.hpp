@@ -15,7 +15,18 @@ struct Source {
   ByteView bytes;
   std::string path;
   bool gzip = false;  ///< the bytes were inflated: offsets count the decompressed stream
+  ReadLimit limit;    ///< what the read may hold in all, `bytes` included (ReadOptions::max_memory_gb)
 };
+
+/// Throws ResourceError, naming the file, `what` and the limit, when `extra` bytes beside the
+/// source's bytes would take the read past its limit. Readers call it with what they are about to
+/// allocate for the particles (their decoded columns and the particle set: 2 × 4 bytes a value)
+/// or for data they decompress.
+void check_read_memory(const Source& source, double extra, std::string_view what);
+
+/// check_read_memory for `count` particles of `values` floats each (positions included), held
+/// twice while a reader turns its columns into the particle set.
+void check_particle_memory(const Source& source, uint64_t count, std::size_t values);
 
 /// A particle file format. `sniff` (optional) recognises the format from its first bytes and
 /// takes precedence over the extension; `read` returns the particles and may set

@@ -233,6 +233,7 @@ ParticleSet read_npy_particles(const Source& source, const ReadOptions& /*option
       bad_header("expected a 2-D shape (N, k) with k ≥ 3 columns x, y, z, …");
     const uint64_t n = uint64_t(shape->items[0].number), k = uint64_t(shape->items[1].number);
     check_size(elements, s.size, fmt::format("a ({}, {}) array of {}-byte floats", n, k, s.size));
+    check_read_memory(source, double(n) * double(k) * sizeof(float), fmt::format("{} particles of {} values", n, k));
     const uint8_t* base = source.bytes.data() + data_at;
     auto at = [&](uint64_t i, uint64_t c) {
       return load(s, base + (column_major ? c * n + i : i * k + c) * s.size);
@@ -288,6 +289,10 @@ ParticleSet read_npy_particles(const Source& source, const ReadOptions& /*option
   if (!(fx && fy && fz) && !fp)
     bad_header("expected structured fields x, y, z (scalars) or a field 'P'/'position' of shape (3,)");
   check_size(elements, record, fmt::format("{} records of {} bytes", elements, record));
+  std::size_t values = 0;
+  for (const Field& f : fields) values += f.components;
+  check_read_memory(source, double(elements) * double(values) * sizeof(float),
+                    fmt::format("{} particles of {} values", elements, values));
   const uint8_t* base = source.bytes.data() + data_at;
   const std::size_t n = std::size_t(elements);
   particles.positions.resize(n);

@@ -426,6 +426,7 @@ struct VertexColumns {
 
 // What read_body collects: the vertex columns and, for meshes, the triangles.
 struct BodyTargets {
+  const Source* source = nullptr;  // for the memory checks
   VertexColumns* vertices = nullptr;
   std::vector<Triangle>* triangles = nullptr;  // null: the face element is skipped
   uint64_t vertex_count = 0;
@@ -516,10 +517,17 @@ void read_body(Body& body, const Header& header, const BodyTargets& targets) {
   for (const Element& element : header.elements) {
     if (element.properties.empty()) continue;  // nothing stored, however large the count
     body.check_count(element);
-    if (element.name == "vertex" && targets.vertices) read_vertices(body, element, *targets.vertices);
-    else if (element.name == "face" && targets.triangles)
+    if (element.name == "vertex" && targets.vertices) {
+      const std::size_t scalars = std::size_t(std::count_if(element.properties.begin(), element.properties.end(),
+                                                            [](const Property& p) { return !p.list; }));
+      check_particle_memory(*targets.source, element.count, scalars);
+      read_vertices(body, element, *targets.vertices);
+    } else if (element.name == "face" && targets.triangles) {
+      check_read_memory(*targets.source, double(element.count) * sizeof(Triangle), fmt::format("{} faces", element.count));
       read_faces(body, element, targets.vertex_count, *targets.triangles);
-    else skip_element(body, element);
+    } else {
+      skip_element(body, element);
+    }
   }
 }
 
@@ -673,7 +681,7 @@ Decoded decode(const Source& source, bool want_faces) {
       vertex->properties[d.iz].list)
     throw FormatError(source.path, fmt::format("line {}", vertex->line),
                       "expected scalar properties x, y and z in element 'vertex'");
-  BodyTargets targets{&d.vertices, want_faces ? &d.triangles : nullptr, vertex->count};
+  BodyTargets targets{&source, &d.vertices, want_faces ? &d.triangles : nullptr, vertex->count};
   if (want_faces) {
     if (const Element* face = d.header.find("face"); face && !face->properties.empty()) {
       const std::size_t i = face_index_property(*face);

@@ -294,11 +294,17 @@ class LegacyParser {
   template <class T>
   void read_values(Type t, uint64_t count, std::vector<T>* out, std::string_view what) {
     const std::size_t size = type_size(t);
+    // Every array read is kept (it becomes the particles): their sum is what the read holds.
+    const auto hold = [&] {
+      decoded_bytes_ += double(count) * sizeof(T);
+      check_read_memory(source_, decoded_bytes_, fmt::format("the arrays decoded up to {} ({} values)", what, count));
+    };
     if (out_.binary) {
       ByteCursor cursor(source_.bytes, source_.path, source_.gzip);
       cursor.seek(pos_, what);
       cursor.require_records(count, size, what);
       if (out) {
+        hold();
         out->resize(std::size_t(count));
         const uint8_t* p = source_.bytes.data() + pos_;
         for (std::size_t i = 0; i < out->size(); ++i, p += size) (*out)[i] = static_cast<T>(load(t, p));
@@ -311,7 +317,10 @@ class LegacyParser {
       fail_at(pos_, fmt::format("expected {} values for {}, but only {} bytes of text are left (the count is larger "
                                 "than the file can hold)",
                                 count, what, left));
-    if (out) out->resize(std::size_t(count));
+    if (out) {
+      hold();
+      out->resize(std::size_t(count));
+    }
     for (std::size_t i = 0; i < count; ++i) {
       while (pos_ < text_.size() && is_space(text_[pos_])) ++pos_;
       const std::size_t start = pos_;
@@ -535,6 +544,7 @@ class LegacyParser {
   bool v5_ = false;
   Type block_type_ = Type::int64;
   std::size_t pos_ = 0;
+  double decoded_bytes_ = 0;  // what read_values has allocated so far
   Parsed out_;
 };
 

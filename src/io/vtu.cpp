@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "meniscus/errors.hpp"
+#include "meniscus/messages.hpp"
 
 namespace meniscus::io {
 
@@ -236,6 +237,7 @@ class VtuReader {
       if (!piece.positions)
         errors_.fail_at(piece.at, "expected a <Points> DataArray in the <Piece>");
       const std::vector<double> xyz = values(*piece.positions, piece.points, 3);
+      kept_ += 12.0 * double(piece.points);
       const std::size_t base = particles.positions.size();
       particles.positions.resize(base + std::size_t(piece.points));
       for (std::size_t i = 0; i < piece.points; ++i)
@@ -246,6 +248,7 @@ class VtuReader {
       for (std::size_t k = 0; k < piece.point_data.size(); ++k) {
         const ArrayRef& a = piece.point_data[k];
         const std::vector<double> v = values(a, piece.points, a.components);
+        kept_ += 4.0 * double(v.size());
         if (first) {
           const bool integer = a.type->type != Type::float32 && a.type->type != Type::float64;
           particles.attributes.push_back(Attribute{a.name, a.components, integer, {}});
@@ -448,9 +451,17 @@ class VtuReader {
                                           info_.appended_encoding));
       }
     }
+    hold(a, double(raw.size()) + 8.0 * double(count));
     std::vector<double> out(static_cast<std::size_t>(count));
     for (std::size_t i = 0; i < out.size(); ++i) out[i] = load(a.type->type, raw.data() + i * a.type->size);
     return out;
+  }
+
+  /// Checks the memory of an array about to be decoded (`bytes`) beside the particles decoded so
+  /// far, whose float values the caller adds to kept_ (after its size was checked against the file).
+  void hold(const ArrayRef& a, double bytes) const {
+    check_read_memory(source_, kept_ + bytes, fmt::format("array '{}' ({}) and the arrays before it", a.name,
+                                                         human_bytes(bytes)));
   }
 
   double load(Type t, const uint8_t* p) const {
@@ -474,6 +485,7 @@ class VtuReader {
     if (count > (a.content.size() + 1) / 2)
       errors_.fail_at(a.at, fmt::format("expected {} ascii values for '{}', but its text has only {} bytes", count,
                                         a.name, a.content.size()));
+    hold(a, 8.0 * double(count));
     std::vector<double> out;
     out.reserve(std::size_t(count));
     const std::string_view s = a.content;
@@ -553,6 +565,7 @@ class VtuReader {
     }
     if (expected > compressed * 1032 + blocks * 64)
       fail(fmt::format("{} compressed bytes cannot inflate to the {} bytes the array needs", compressed, expected));
+    hold(a, double(expected));
     Bytes out(static_cast<std::size_t>(expected));
     for (uint64_t b = 0; b < blocks; ++b) {
       const uint64_t csize = header_int(blob.data() + (3 + b) * hs);
@@ -628,6 +641,7 @@ class VtuReader {
   const Source& source_;
   std::string_view text_;
   ByteCursor errors_;
+  double kept_ = 0;  // bytes of the particles (and mesh points) decoded so far
   FileInfo info_;
   std::vector<Piece> pieces_;
   std::string formats_;

@@ -19,6 +19,7 @@ ParticleSet read_xyz_particles(const Source& source, const ReadOptions& /*option
                                "records, found a trailing partial record of {} byte{}",
                                size, size % record, size % record == 1 ? "" : "s"));
   }
+  check_read_memory(source, double(size / record) * sizeof(Vec3f), fmt::format("{} particles", size / record));
   ParticleSet particles;
   particles.positions.resize(size / record);
   const uint8_t* p = source.bytes.data();

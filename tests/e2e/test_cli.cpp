@@ -93,11 +93,15 @@ struct Refusal {
 TEST(Cli, RefusesInvalidOptionsWithAClearMessageAndNoOutput) {
   const std::vector<Refusal> cases = {
       {"--r-outer -1", "--r-outer"},
-      {"--r-inner 0.1 --r-outer 0.05", "r_inner"},
+      {"--r-inner 0.1 --r-outer 0.05", "--r-inner 0.1: must be smaller than --r-outer"},
       {"--relax 2", "relax"},
       {"--relax 1.5 --solver jacobi", "Jacobi"},
       {"--extract spheres", "--extract"},
-      {"--voxel-size 0", "--voxel-size"},
+      {"--voxel-size -0.1", "--voxel-size -0.1: must be a finite number ≥ 0"},
+      {"--steps-a 2147483648", "--steps-a 2147483648: must be a whole number from 0 to 10000"},
+      {"--threads 2000000000", "--threads 2000000000: must be a whole number from 0 to"},
+      {"--spacing 1e400", "--spacing 1e400: must be a finite number"},
+      {"--spacing -1", "--spacing -1: must be a finite number ≥ 0 (0: estimated from the particles)"},
       {"--bogus-option 3", "bogus-option"},
       {"--steps-a many", "--steps-a"},
       {"--transfer nothing_like_this", "nothing_like_this"},

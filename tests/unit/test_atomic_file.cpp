@@ -40,7 +40,7 @@ TEST(AtomicWrite, CommitLeavesOnlyTheTarget) {
   {
     AtomicFile file(target);
     EXPECT_EQ(std::filesystem::path(file.temp_path()).parent_path(), dir.path);
-    EXPECT_TRUE(std::filesystem::path(file.temp_path()).filename().string().starts_with(".out.bin.tmp-"));
+    EXPECT_TRUE(std::filesystem::path(file.temp_path()).filename().string().starts_with(".out.bin.meniscus-tmp-"));
     file.write(std::string_view("hello "));
     file.write(std::string_view("world"));
     EXPECT_FALSE(std::filesystem::exists(target));  // nothing visible before commit

@@ -39,7 +39,7 @@ using test::data_file;
 using test::TempDir;
 
 std::string gunzipped(const std::string& path) {
-  const io::Bytes b = io::read_file_bytes_gunzipped(path);
+  const io::ByteBuffer b = io::read_file_content(path);
   return std::string(b.begin(), b.end());
 }
 

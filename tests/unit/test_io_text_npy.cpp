@@ -69,7 +69,7 @@ TEST(CsvRealFiles, SphysicsIpartWithColumnsOption) {
 
 TEST(CsvRealFiles, HeaderlessWithoutColumnsNamesTheFix) {
   expect_format_error([] { read_particles(test::data_file("sphysics_dam_break_IPART_29814_particles.txt.gz")); },
-                      {"line 1", "header", "ReadOptions::columns"});
+                      {"line 1", "header", "give columns = x,y,z"});
 }
 
 TEST(CsvHeader, CommaSemicolonWhitespaceAndParaViewNames) {
@@ -146,7 +146,7 @@ TEST(CsvErrors, MissingColumnShortRowDuplicateNamesAndEmptyFile) {
   options.columns = {"x", "y"};
   const std::string f = dir.file("f.txt");
   write_file(f, "1 2\n");
-  expect_format_error([&] { read_particles(f, options); }, {f, "ReadOptions::columns"});
+  expect_format_error([&] { read_particles(f, options); }, {f, "found columns (x, y)"});
 }
 
 TEST(CsvErrors, NanIsHandledByTheIoLayer) {

@@ -1,0 +1,260 @@
+// meniscus CLI — `meniscus surface` of a sequence: every frame of a pattern, one progress bar,
+// failed frames reported and skipped, each frame's flicker against the one before it.
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <thread>
+#include <utility>
+
+#include "cli.hpp"
+#include "common/clock.hpp"
+#include "meniscus/errors.hpp"
+#include "meniscus/messages.hpp"
+#include "meniscus/quality.hpp"
+#include "progress.hpp"
+#include "surface.hpp"
+
+namespace meniscus::cli {
+
+namespace {
+
+/// Frame-to-frame flicker of a sequence (docs/method.md): each surfaced frame is compared with
+/// the one before it in the frame list (when both succeeded), whatever order the jobs finish in;
+/// a mesh is kept only until both of its pairs are settled. Not thread-safe: callers hold a lock.
+class SequenceFlicker {
+ public:
+  explicit SequenceFlicker(std::size_t frames) : status_(frames, kPending), flicker_(frames) {}
+  /// Records frame i's result (mesh == nullptr: it failed) and its spacing; returns the frames
+  /// whose flicker became known. A frame's flicker searches kFlickerCapSpacings of its spacing.
+  std::vector<std::size_t> settle(std::size_t i, TriangleMesh* mesh, double spacing = 0) {
+    status_[i] = mesh ? kDone : kFailed;
+    if (mesh) meshes_[i] = std::move(*mesh), caps_[i] = kFlickerCapSpacings * spacing;
+    std::vector<std::size_t> known;
+    for (std::size_t k : {i, i + 1}) {
+      if (k == 0 || k >= status_.size() || status_[k - 1] != kDone || status_[k] != kDone) continue;
+      const auto t0 = std::chrono::steady_clock::now();
+      flicker_[k] = Measured{distance_to_surface(meshes_.at(k).vertices, meshes_.at(k - 1), caps_.at(k)), 0};
+      flicker_[k]->seconds = seconds_since(t0);
+      known.push_back(k);
+    }
+    for (std::size_t k : {i == 0 ? i : i - 1, i, i + 1}) {  // drop meshes no pair needs any more
+      if (k >= status_.size() || !meshes_.count(k)) continue;
+      const bool before = k == 0 || status_[k - 1] != kPending;
+      const bool after = k + 1 == status_.size() || status_[k + 1] != kPending;
+      if (before && after) meshes_.erase(k), caps_.erase(k);
+    }
+    return known;
+  }
+  struct Measured {
+    SurfaceDistanceReport report;
+    double seconds;
+  };
+  const std::optional<Measured>& flicker(std::size_t k) const { return flicker_[k]; }
+
+ private:
+  enum Status : char { kPending, kDone, kFailed };
+  std::vector<Status> status_;
+  std::map<std::size_t, TriangleMesh> meshes_;
+  std::map<std::size_t, double> caps_;
+  std::vector<std::optional<Measured>> flicker_;
+};
+
+/// Adds the flicker against the previous frame to a frame's stats file.
+void add_flicker_to_stats(const std::string& path, int previous_frame, const SequenceFlicker::Measured& f) {
+  nlohmann::ordered_json j = nlohmann::ordered_json::parse(read_text_file(path));
+  j["flicker"] = {{"previous_frame", previous_frame}};
+  j["flicker"].update(flicker_json(f.report));
+  j["flicker"]["seconds"] = f.seconds;
+  write_text_file(path, j.dump(2) + "\n");
+}
+
+}  // namespace
+
+nlohmann::ordered_json flicker_json(const SurfaceDistanceReport& f) {
+  nlohmann::ordered_json j = {{"mean", f.mean}, {"p95", f.p95}, {"max", f.max}, {"beyond_cap", f.beyond_cap}};
+  j["cap"] = std::isfinite(f.cap) ? nlohmann::ordered_json(f.cap) : nlohmann::ordered_json(nullptr);
+  j["triangle_tests"] = f.triangle_tests;
+  return j;
+}
+
+int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
+  SurfaceArgs a = given;
+  const auto out = parse_frame_pattern(a.output);
+  if (!out)
+    throw InvalidParameter(fmt::format("output '{}' needs a frame placeholder (####, {{}} or %04d) like the input",
+                                       printable(a.output)));
+  std::optional<FramePattern> stats, preview, field;
+  for (auto [path, pattern] :
+       {std::pair{&a.stats_path, &stats}, std::pair{&a.preview_path, &preview}, std::pair{&a.field_path, &field}}) {
+    if (path->empty()) continue;
+    *pattern = parse_frame_pattern(*path);
+    if (!*pattern) throw InvalidParameter(fmt::format("'{}' needs a frame placeholder in a sequence", printable(*path)));
+  }
+  std::vector<int> frames = a.frames.empty() ? discover_frames(in) : parse_frame_ranges(a.frames);
+  if (frames.empty())
+    throw IoError(fmt::format("no file matches '{}': the frames are looked up by replacing the placeholder with "
+                              "numbers (e.g. '{}')",
+                              printable(a.input), printable(in.format(1))));
+  const auto files_of = [&](int frame) {
+    return FrameFiles{in.format(frame), out->format(frame), stats ? stats->format(frame) : "",
+                      preview ? preview->format(frame) : "", field ? field->format(frame) : ""};
+  };
+  // Every frame's files before any work: an output pattern that names an input frame, or two
+  // outputs that meet, are refused whole.
+  {
+    std::vector<RunFile> files = {{a.config_path, "--config", false}};
+    for (const int frame : frames) add_frame_files(files, files_of(frame));
+    check_run_files(files);
+  }
+  // The frame the estimates come from: named, or the first of the list (also when its mesh exists,
+  // so that a resubmission with --skip-existing estimates what the first submission did).
+  std::vector<int> candidates = a.estimates_from ? std::vector<int>{*a.estimates_from} : frames;
+  std::vector<int> skipped;
+  if (a.skip_existing) {
+    std::erase_if(frames, [&](int frame) {
+      const bool exists = std::filesystem::exists(out->format(frame));
+      if (exists) skipped.push_back(frame);
+      return exists;
+    });
+    if (!a.quiet && !skipped.empty())
+      fmt::print(stderr, "skipping {} frame(s) whose mesh exists (--skip-existing): {}\n", skipped.size(),
+                 format_frame_ranges(skipped));
+    if (frames.empty()) {
+      if (!a.quiet) fmt::print(stderr, "every frame's mesh exists: nothing to do\n");
+      return kExitOk;
+    }
+  }
+  const int jobs = std::max(1, std::min<int>(a.jobs, int(frames.size())));
+  // The frames surfaced at once share the memory limit.
+  const double memory_share = 1.0 / jobs;
+  a.params.max_memory_gb = memory_limit_bytes(a.params.max_memory_gb) * memory_share / 1e9;
+
+  // The frame-wide estimates (spacing, rest density, reference speed) not given are made on the
+  // first frame that reads and used for every frame: re-estimated per frame, a droplet appearing
+  // anywhere would move the whole surface. That frame's particles are surfaced as read here; a
+  // frame that does not read is reported with the others.
+  const Params gp = a.params;
+  Params estimated = gp;
+  std::size_t first = 0;
+  std::optional<ReadFrame> first_frame;
+  for (; first < candidates.size() && !first_frame; ++first) {
+    try {
+      const auto t0 = std::chrono::steady_clock::now();
+      ParticleSet particles = read_particles(in.format(candidates[first]), read_options(a));
+      first_frame = ReadFrame{std::move(particles), seconds_since(t0)};
+    } catch (const std::exception& e) {
+      if (a.estimates_from)  // a named frame must read: another frame would give other estimates
+        throw IoError(fmt::format("--estimates-from {}: {}", *a.estimates_from, e.what()));
+    }
+  }
+  const int estimate_frame = candidates[--first];
+  if (first_frame) estimated = resolve_frame_estimates(first_frame->particles, gp);
+  // The particles read are surfaced as they are when that frame is one to surface.
+  const auto preread_at = std::find(frames.begin(), frames.end(), estimate_frame);
+  first = std::size_t(preread_at - frames.begin());
+  if (!(estimated == gp)) {
+    a.estimated_on = in.format(estimate_frame);
+    if (!a.quiet) {
+      std::string what = fmt::format("spacing {:.6g}", estimated.spacing);
+      if (estimated.rest_density != gp.rest_density) what += fmt::format(", rest density {:.6g}", estimated.rest_density);
+      if (estimated.velocity_reference != gp.velocity_reference)
+        what += fmt::format(", reference speed {:.6g}", estimated.velocity_reference);
+      fmt::print(stderr, "estimated on frame {} and used for every frame: {}{}\n", estimate_frame, what,
+                 gp.spacing == 0 ? " (set --spacing to override)" : "");
+    }
+  }
+  a.params = estimated;
+
+  const auto t0 = std::chrono::steady_clock::now();
+  ProgressBar bar(!a.quiet);
+  std::mutex mutex;  // guards the bar, the report lines and the counters below
+  std::vector<int> failed;
+  std::size_t done = 0, triangles = 0;
+  std::atomic<std::size_t> next{0};
+  std::atomic<bool> stop{false};
+  SequenceFlicker flicker(frames.size());
+  auto record_flicker = [&](std::size_t i, TriangleMesh* mesh, double spacing) {  // with the mutex held
+    for (std::size_t k : flicker.settle(i, mesh, spacing))
+      if (stats) add_flicker_to_stats(stats->format(frames[k]), frames[k - 1], *flicker.flicker(k));
+  };
+  auto worker = [&] {
+    for (;;) {
+      if (stop) return;
+      const std::size_t i = next++;
+      if (i >= frames.size()) return;
+      const int frame = frames[i];
+      try {
+        std::optional<ReadFrame> preread;
+        if (i == first) preread = std::exchange(first_frame, std::nullopt);
+        Result r = surface_one(
+            a, files_of(frame), false,
+            [&](std::string_view stage, double fraction) {
+              if (jobs > 1) return;
+              std::lock_guard lock(mutex);
+              bar.update(fmt::format("frame {} {}", frame, stage), (double(done) + fraction) / double(frames.size()));
+            },
+            std::move(preread));
+        std::lock_guard lock(mutex);
+        ++done;
+        triangles += r.stats.triangles;
+        record_flicker(i, &r.mesh, r.params.spacing);
+        bar.update(fmt::format("frame {}", frame), double(done) / double(frames.size()));
+      } catch (const std::exception& e) {
+        std::lock_guard lock(mutex);
+        ++done;
+        failed.push_back(frame);
+        try {
+          record_flicker(i, nullptr, 0);
+        } catch (const std::exception&) {
+        }
+        bar.finish();
+        fmt::print(stderr, "meniscus: frame {}: error: {}\n", frame,
+                   printable(dynamic_cast<const std::bad_alloc*>(&e) ? "out of memory" : e.what()));
+        if (a.fail_fast) stop = true;
+      }
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int j = 1; j < jobs; ++j) threads.emplace_back(worker);
+  worker();
+  for (std::thread& t : threads) t.join();
+  bar.finish();
+  std::sort(failed.begin(), failed.end());
+  const std::size_t ok = done - failed.size();
+  double flicker_sum = 0, flicker_max = 0, flicker_seconds = 0;
+  std::size_t flicker_count = 0, beyond_cap = 0, vertices = 0;
+  for (std::size_t k = 0; k < frames.size(); ++k)
+    if (const auto& f = flicker.flicker(k)) {
+      flicker_sum += f->report.mean, flicker_max = std::max(flicker_max, f->report.max), ++flicker_count;
+      flicker_seconds += f->seconds;
+      beyond_cap += f->report.beyond_cap;
+      vertices += f->report.count;
+    }
+  if (!a.quiet && flicker_count > 0)
+    fmt::print(stderr,
+               "flicker (vertex distance to the previous frame's surface): mean {:.4g} over {} frame pairs, max {:.4g}{}; "
+               "measured in {:.3f}s\n",
+               flicker_sum / double(flicker_count), flicker_count, flicker_max,
+               beyond_cap == 0 ? std::string()
+                               : fmt::format(" (the search's cap of {} spacings: {} of {} vertices were farther and count "
+                                             "at it)",
+                                             kFlickerCapSpacings, beyond_cap, vertices),
+               flicker_seconds);
+  if (!a.quiet || !failed.empty())
+    fmt::print(stderr, "{} of {} frames surfaced ({} triangles) in {:.2f}s{}{}\n", ok, frames.size(), triangles,
+               seconds_since(t0),
+               failed.empty() ? ""
+                              : fmt::format("; failed: {} (run again with --skip-existing, or --frames {})",
+                                            format_frame_ranges(failed), format_frame_ranges(failed)),
+               stop ? "; stopped at the first failure (--fail-fast)" : "");
+  return failed.empty() ? kExitOk : kExitFailed;
+}
+
+}  // namespace meniscus::cli

@@ -1,0 +1,208 @@
+// meniscus CLI — `meniscus surface` of one frame, and what the sequence runner shares with it.
+#include "surface.hpp"
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include <chrono>
+
+#include "cli.hpp"
+#include "common/clock.hpp"
+#include "field/vdb_export.hpp"
+#include "meniscus/errors.hpp"
+#include "meniscus/messages.hpp"
+#include "meniscus/render.hpp"
+#include "mpi_surface.hpp"
+#include "progress.hpp"
+
+namespace meniscus::cli {
+
+namespace {
+
+/// The most frames surfaced at once: each holds a frame's memory, and --max-memory is shared.
+constexpr int kMaxJobs = 256;
+
+void print_summary(const FrameFiles& f, const Result& result) {
+  if (result.stats.spacing_estimated && result.stats.estimated_on.empty())
+    fmt::print(stderr, "estimated particle spacing {:.6g} (from the particle distances and density; set --spacing to override)\n",
+               result.params.spacing);
+  for (const std::string& w : result.stats.warnings) print_warning(w);
+  const Stats& s = result.stats;
+  std::string stages;
+  const SmoothingStats& sm = s.smoothing;
+  for (const StageTime& t : s.stages) {
+    stages += fmt::format("{}{} {:.3f}s", stages.empty() ? "" : ", ", t.name, t.seconds);
+    if (t.name == "smooth" && sm.a_sweeps_seconds + sm.b_sweeps_seconds > 0)  // the CPU's split
+      stages += fmt::format(" (set-up {:.3f}s, A {:.3f}s, B {:.3f}s)", sm.setup_seconds, sm.a_sweeps_seconds,
+                            sm.b_sweeps_seconds);
+  }
+  fmt::print(stderr, "{} particles → {} vertices, {} triangles in {:.3f}s on {}, peak memory {}\n", s.particles,
+             s.vertices, s.triangles, s.total_seconds(),
+             s.backend == "cuda" ? std::string("the CUDA device")
+                                 : fmt::format("{} threads{}", s.threads,
+                                               s.threads_from == "--threads" ? "" : " (" + s.threads_from + ")"),
+             human_bytes(double(s.peak_memory_bytes)));
+  fmt::print(stderr, "  {}\n", stages);
+  fmt::print(stderr, "wrote {}{}{}{}\n", printable(f.output), f.preview.empty() ? "" : ", " + printable(f.preview),
+             f.stats.empty() ? "" : ", " + printable(f.stats), f.field.empty() ? "" : ", " + printable(f.field));
+}
+
+/// One frame over the ranks of an MPI job (mpirun, srun --mpi=pmix): docs/cluster.md.
+int run_surface_ranks(const MpiSession& mpi, const SurfaceArgs& a) {
+  if (parse_frame_pattern(a.input))
+    throw InvalidParameter("a sequence under an MPI launcher: surface its frames as a job array (docs/cluster.md); "
+                           "MPI spreads one frame over the ranks");
+  if (!a.preview_path.empty() || !a.field_path.empty())
+    throw InvalidParameter("--preview and --save-field are not available over MPI ranks: render the mesh afterwards "
+                           "(meniscus render)");
+  if (!a.params.clip_box.empty() || a.params.decimate > 0)
+    throw InvalidParameter("--clip-box and --decimate work on the whole mesh and are not available over MPI ranks: "
+                           "surface in one process to use them");
+  if (a.pieces && !a.output.ends_with(".pvtp"))
+    throw InvalidParameter(fmt::format("--pieces: the output '{}' must be the .pvtp index of the pieces (big.pvtp → "
+                                       "big_0.vtp, big_1.vtp …)", printable(a.output)));
+  std::vector<RunFile> files = {{a.input, "the input", false}, {a.config_path, "--config", false},
+                                {a.output, "-o", true}, {a.stats_path, "--stats", true}};
+  if (a.pieces)
+    for (int rank = 0; rank < mpi.size(); ++rank) files.push_back({piece_path(a.output, rank), "a piece", true});
+  check_run_files(files);
+  MpiJob job{a.input, a.output, a.stats_path, a.params, read_options(a), a.quiet || mpi.rank() != 0, a.pieces};
+  if (!a.stats_path.empty()) make_parent_dirs(a.stats_path);
+  make_parent_dirs(a.output);
+  return run_surface_mpi(mpi, job);
+}
+
+}  // namespace
+
+CLI::App* add_surface_command(CLI::App& app, SurfaceArgs& a) {
+  CLI::App* cmd = app.add_subcommand("surface", "surface a particle file (or a sequence of them) into a triangle mesh");
+  const std::string files = "Files";
+  cmd->add_option("input", a.input,
+                  "particle file, or a sequence pattern with a frame placeholder: fluid_####.ply, fluid_{}.ply, "
+                  "fluid_%04d.ply")
+      ->required()->group(files);
+  cmd->add_option("-o,--output", a.output, "mesh file to write (with a frame placeholder for a sequence)")
+      ->required()->group(files);
+  cmd->add_option("--stats", a.stats_path, "write counts, stage times and the parameters used as JSON")->group(files);
+  cmd->add_option("--preview", a.preview_path, "also render a shaded preview picture (.png)")->group(files);
+  cmd->add_option("--up", a.up, "up axis of the preview's camera (SPlisHSPlasH and Houdini scenes are y-up)")
+      ->check(CLI::IsMember({"x", "y", "z"}))->capture_default_str()->group(files);
+  cmd->add_option("--save-field", a.field_path, "also write the distance field as an OpenVDB level set (.vdb)")
+      ->group(files);
+  cmd->add_option("--columns", a.columns, "column names of headerless text particles (e.g. x,y,z,vx,vy,vz,rho)")
+      ->delimiter(',')->group(files);
+  cmd->add_flag("--drop-invalid", a.drop_invalid, "drop particles with NaN/Inf coordinates instead of failing")
+      ->group(files);
+  cmd->add_option("--config", a.config_path, "JSON file of parameters (or a --stats file to replay); options given win")
+      ->group(files);
+  cmd->add_flag("-q,--quiet", a.quiet, "no progress bar and no summary")->group(files);
+  const std::string sequence = "Sequences";
+  cmd->add_option("--frames", a.frames, "frames of a sequence: 1-240, 1-240:2, 1,5,10-20 (default: every file found)")
+      ->group(sequence);
+  cmd->add_option("--jobs", a.jobs, fmt::format("frames of a sequence surfaced at once, 1 to {} (they share "
+                                                "--max-memory)", kMaxJobs))
+      ->capture_default_str()->group(sequence);
+  cmd->add_flag("--fail-fast", a.fail_fast, "stop a sequence at the first frame that fails")->group(sequence);
+  cmd->add_flag("--skip-existing", a.skip_existing,
+                "leave out the frames whose mesh exists (a resubmitted job redoes only what failed)")
+      ->group(sequence);
+  cmd->add_option("--estimates-from", a.estimates_from,
+                  "the frame the spacing, rest density and reference speed are estimated on when not given "
+                  "(default: the first of --frames; a job array's tasks all name the sequence's first)")
+      ->group(sequence);
+  cmd->add_flag("--pieces", a.pieces,
+                "over MPI ranks, -o X.pvtp: each rank writes its piece X_<rank>.vtp and rank 0 the ParaView index "
+                "(meniscus merge X.pvtp -o X.ply welds them)")
+      ->group(sequence);
+  a.options.add_to(*cmd);
+  return cmd;
+}
+
+ReadOptions read_options(const SurfaceArgs& a, double memory_share) {
+  ReadOptions o;
+  o.drop_invalid = a.drop_invalid;
+  o.columns = a.columns;
+  o.max_memory_gb = memory_limit_bytes(a.params.max_memory_gb) * memory_share / 1e9;
+  return o;
+}
+
+void add_frame_files(std::vector<RunFile>& files, const FrameFiles& f) {
+  files.push_back({f.input, "the input", false});
+  files.push_back({f.output, "-o", true});
+  files.push_back({f.stats, "--stats", true});
+  files.push_back({f.preview, "--preview", true});
+  files.push_back({f.field, "--save-field", true});
+}
+
+Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, const ProgressFn& progress,
+                   std::optional<ReadFrame> preread) {
+  const auto t0 = std::chrono::steady_clock::now();
+  ReadReport report;
+  const ParticleSet particles = preread ? std::move(preread->particles) : read_particles(f.input, read_options(a), &report);
+  const double read_seconds = preread ? preread->seconds : seconds_since(t0);
+  if (verbose) {
+    fmt::print(stderr, "read {} particles from {} ({})\n", particles.size(), printable(f.input), report.format);
+    if (report.dropped_invalid) fmt::print(stderr, "dropped {} particles with NaN/Inf coordinates\n", report.dropped_invalid);
+  }
+  Result result = reconstruct(particles, a.params, progress);
+  result.stats.stages.insert(result.stats.stages.begin(), StageTime{"read", read_seconds});
+  if (!a.estimated_on.empty()) {  // a sequence's frame: the estimates come from its first frame
+    result.stats.spacing_estimated = true;
+    result.stats.estimated_on = a.estimated_on;
+  }
+
+  for (const std::string* out : {&f.output, &f.preview, &f.stats, &f.field})
+    if (!out->empty()) make_parent_dirs(*out);
+  const auto t1 = std::chrono::steady_clock::now();
+  write_mesh(f.output, result.mesh);
+  result.stats.stages.push_back({"write", seconds_since(t1)});
+  if (!f.preview.empty()) {
+    const auto t2 = std::chrono::steady_clock::now();
+    RenderOptions view;
+    view.up = up_axis(a.up);
+    write_png(f.preview, render_mesh(result.mesh, view));
+    result.stats.stages.push_back({"preview", seconds_since(t2)});
+  }
+  if (!f.field.empty()) {
+    const auto t3 = std::chrono::steady_clock::now();
+    write_field_vdb(f.field, particles, result.params);
+    result.stats.stages.push_back({"save_field", seconds_since(t3)});
+  }
+  if (!f.stats.empty()) write_text_file(f.stats, stats_to_json(result) + "\n");
+  return result;
+}
+
+int run_surface(const CLI::App& cmd, SurfaceArgs& a, const MpiSession& mpi) {
+  a.params = run_parameters(cmd, a.options, a.config_path);
+  if (cmd.count("--detail") && cmd.count("--voxel-size") && !a.quiet)
+    print_warning(fmt::format("--detail is ignored: --voxel-size {:g} is given", a.params.voxel_size));
+  if (a.jobs < 1 || a.jobs > kMaxJobs)
+    throw InvalidParameter(fmt::format("--jobs {}: must be a whole number from 1 to {}", a.jobs, kMaxJobs));
+  if (a.pieces && !mpi.active())
+    throw InvalidParameter("--pieces: one piece per MPI rank; run under mpirun or srun --mpi=pmix (docs/cluster.md)");
+  if (!a.pieces) check_output_format(a.output);  // refuse an unknown format before any work is done
+  if (!a.preview_path.empty() && !a.preview_path.ends_with(".png") && !a.preview_path.ends_with(".PNG"))
+    throw InvalidParameter(fmt::format("--preview '{}': previews are PNG pictures (name it .png)", printable(a.preview_path)));
+  if (!a.field_path.empty() && !has_openvdb())
+    throw InvalidParameter("--save-field: this meniscus was built without OpenVDB (install libopenvdb-dev and rebuild)");
+  if (mpi.active()) return run_surface_ranks(mpi, a);
+  if (launched_ranks() > 1)
+    throw InvalidParameter(fmt::format("started by an MPI launcher as one of {} processes, but this meniscus was built "
+                                       "without MPI: each would surface the whole frame (install libopenmpi-dev and "
+                                       "rebuild, or run one process)",
+                                       launched_ranks()));
+  if (const auto pattern = parse_frame_pattern(a.input)) return run_sequence(a, *pattern);
+  if (!a.frames.empty()) throw InvalidParameter("--frames needs an input pattern with a frame placeholder (####, {} or %04d)");
+
+  const FrameFiles f{a.input, a.output, a.stats_path, a.preview_path, a.field_path};
+  std::vector<RunFile> files = {{a.config_path, "--config", false}};
+  add_frame_files(files, f);
+  check_run_files(files);
+  ProgressBar bar(!a.quiet);
+  const Result result = surface_one(a, f, !a.quiet, [&](std::string_view stage, double fraction) { bar.update(stage, fraction); });
+  bar.finish();
+  if (!a.quiet) print_summary(f, result);
+  return kExitOk;
+}
+
+}  // namespace meniscus::cli

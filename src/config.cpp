@@ -158,8 +158,9 @@ Params params_from_json(const json& object, const Params& base) {
 
 Params read_config(const std::string& path, const Params& base) {
   // A configuration is a few hundred bytes; more than this is not one (a wrong path, /dev/zero).
-  constexpr std::size_t kMaxConfigBytes = std::size_t(16) << 20;
-  const io::ByteBuffer bytes = io::read_file_bytes(path, {kMaxConfigBytes, "the 16 MB a configuration file may hold"});
+  constexpr std::size_t kMaxConfigBytes = 16'000'000;
+  const io::ByteBuffer bytes = io::read_file_bytes(
+      path, {kMaxConfigBytes, fmt::format("the {} a configuration file may hold", human_bytes(kMaxConfigBytes))});
   const std::string text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
   // One JSON object, with each key once: nlohmann keeps the last of two equal keys silently, so
   // the parser's callback keeps the keys of every open object.

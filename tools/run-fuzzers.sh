@@ -2,7 +2,9 @@
 # Builds the libFuzzer target of every particle reader with clang and runs each for a bounded
 # time (FUZZ_SECONDS, default 30; one target per core at a time) on a corpus seeded with the real
 # files in tests/data.
-# Exits non-zero on any finding (crash, sanitizer report, leak, timeout).
+# Exits non-zero on any finding (crash, sanitizer report, leak, timeout, an input that makes a
+# reader hold more memory than the 256 MB the target gives it: -rss_limit_mb and -malloc_limit_mb
+# sit just above that, where a decompression bomb or a lying count would land far beyond).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${FUZZ_SECONDS:-30}
@@ -29,7 +31,7 @@ fuzz() {  # one target: its report in $build/fuzz-FORMAT.log, its fuzzer's exit 
   seed "$format" "$corpus"
   {
     echo "== fuzzing $format for ${seconds}s ($(ls "$corpus" | wc -l) seeds)"
-    "$target" "$corpus" -max_total_time="$seconds" -max_len=1048576 -rss_limit_mb=2048 -timeout=10 \
+    "$target" "$corpus" -max_total_time="$seconds" -max_len=1048576 -rss_limit_mb=512 -malloc_limit_mb=400 -timeout=10 \
       -print_final_stats=1 -artifact_prefix="$build/crash-$format-" 2>&1 | tail -n 12
     found=${PIPESTATUS[0]}
   } > "$build/fuzz-$format.log"

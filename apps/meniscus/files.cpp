@@ -116,7 +116,9 @@ void write_text_file(const std::string& path, const std::string& text) {
 }
 
 std::string read_text_file(const std::string& path) {
-  const io::ByteBuffer bytes = io::read_file_bytes(path, {std::size_t(64) << 20, "the 64 MB a text file here may hold"});
+  constexpr std::size_t kMaxText = 64'000'000;
+  const io::ByteBuffer bytes =
+      io::read_file_bytes(path, {kMaxText, fmt::format("the {} such a text file may hold", human_bytes(kMaxText))});
   return std::string(reinterpret_cast<const char*>(bytes.data()), bytes.size());
 }
 

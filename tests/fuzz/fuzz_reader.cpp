@@ -1,6 +1,9 @@
 // meniscus — libFuzzer target for one particle reader (MENISCUS_FUZZ_FORMAT names it in the
-// format table). Any exception other than the library's own, any crash, leak or sanitizer
-// report is a finding.
+// format table). The reader holds at most kReadLimit (as --max-memory bounds a run), and the
+// fuzzer runs with -rss_limit_mb above that (tools/run-fuzzers.sh): an input that makes a reader
+// hold more than its limit — a header that lies, a decompression bomb — is a finding. So is any
+// crash, leak or sanitizer report, and any exception but those of bad input (the CLI's exit code
+// 1): a reader that threw InvalidParameter would make bad input look like a bad option (exit 2).
 #include <cstddef>
 #include <cstdint>
 #include <new>
@@ -20,19 +23,22 @@ const meniscus::io::ParticleReader& reader() {
 }
 }  // namespace
 
+constexpr std::size_t kReadLimit = std::size_t(256) << 20;
+
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const auto& r = reader();
   meniscus::io::Source source;
   source.bytes = meniscus::io::ByteView(data, size);
   source.path = std::string("fuzz-input") + (r.extensions.empty() ? "" : r.extensions.front());
+  source.limit = {kReadLimit, "the fuzzer's 256 MB"};
   meniscus::ReadOptions options;
   meniscus::ReadReport report;
   try {
     const meniscus::ParticleSet particles = r.read(source, options, &report);
     particles.validate();
   } catch (const meniscus::FormatError&) {
-  } catch (const meniscus::InvalidParameter&) {
   } catch (const meniscus::ResourceError&) {
+  } catch (const meniscus::InputError&) {
   }
   return 0;
 }

@@ -6,7 +6,14 @@
 #include <cstdio>
 #include <map>
 #include <random>
+#include <sys/resource.h>
 #include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <fstream>
+#include <iterator>
 
 namespace meniscus::test {
 
@@ -147,6 +154,34 @@ int run_command(const std::string& command, std::string* output) {
   const int status = pclose(pipe);
   if (output) *output = text;
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+Measured run_measured(const std::string& command) {
+  Measured m;
+  char out_name[] = "/tmp/meniscus-run-XXXXXX";
+  const int out = mkstemp(out_name);
+  if (out < 0) return m;
+  const auto t0 = std::chrono::steady_clock::now();
+  const pid_t pid = fork();
+  if (pid == 0) {
+    dup2(out, 1);
+    dup2(out, 2);
+    execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  int status = 0;
+  rusage usage{};
+  while (pid > 0 && wait4(pid, &status, 0, &usage) < 0 && errno == EINTR) {
+  }
+  m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  m.peak_bytes = double(usage.ru_maxrss) * 1024;
+  m.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  m.signal = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
+  std::ifstream in(out_name, std::ios::binary);
+  m.output.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  close(out);
+  unlink(out_name);
+  return m;
 }
 
 std::size_t count_before(std::string_view name, std::string_view suffix) {

@@ -67,6 +67,18 @@ struct TempDir {
 /// Runs a shell command, returns its exit status; stdout+stderr are captured into `output`.
 int run_command(const std::string& command, std::string* output = nullptr);
 
+/// What a command did: its exit status (-1 killed by a signal, whose number is `signal`), its
+/// stdout+stderr, its peak resident memory (the process that `exec`s last in the command) and
+/// its wall time.
+struct Measured {
+  int status = -1, signal = 0;
+  std::string output;
+  double peak_bytes = 0, seconds = 0;
+};
+/// Runs `command` through /bin/sh -c, waits for it with wait4 and reads its rusage: a command
+/// that ends with `exec prog …` measures prog.
+Measured run_measured(const std::string& command);
+
 /// N where `name` holds "_<N>" + `suffix` (the bundled frames carry their particle count in their
 /// names: "dam_break_frame_23_24389_particles.ply"); 0 when it holds none.
 std::size_t count_before(std::string_view name, std::string_view suffix);

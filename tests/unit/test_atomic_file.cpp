@@ -8,10 +8,21 @@
 #include <sstream>
 #include <string>
 #include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <fmt/format.h>
+#include <functional>
+#include <random>
+
+#include "field/vdb_export.hpp"
 #include "io/atomic_file.hpp"
+#include "io/file_bytes.hpp"
+#include "io/vtu.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
+#include "meniscus/reconstruct.hpp"
+#include "meniscus/render.hpp"
 #include "support/test_support.hpp"
 
 namespace meniscus {
@@ -155,6 +166,168 @@ TEST(AtomicWrite, WriteFailureMidwayLeavesNoTargetAndNoTemporaryFile) {
   write_mesh(target, mesh);  // and with the limit lifted it succeeds
   EXPECT_EQ(read_mesh(target).vertices.size(), mesh.vertices.size());
   EXPECT_EQ(directory_listing(dir.path), std::vector<std::string>{"mesh.ply"});
+}
+
+TEST(AtomicWrite, FollowsSymlinksToTheirTargetAndKeepsThem) {
+  TempDir dir;
+  std::filesystem::create_directory(dir.path / "real");
+  std::filesystem::create_symlink("real/target.txt", dir.path / "dangling.txt");  // no target yet
+  std::filesystem::create_symlink("dangling.txt", dir.path / "chain.txt");
+  {
+    AtomicFile file(dir.file("chain.txt"));
+    EXPECT_EQ(std::filesystem::path(file.destination()), dir.path / "real/target.txt");
+    EXPECT_EQ(std::filesystem::path(file.temp_path()).parent_path(), dir.path / "real");
+    file.write(std::string_view("through two links"));
+    file.commit();
+  }
+  EXPECT_TRUE(std::filesystem::is_symlink(dir.path / "chain.txt"));
+  EXPECT_TRUE(std::filesystem::is_symlink(dir.path / "dangling.txt"));
+  EXPECT_EQ(read_file(dir.file("real/target.txt")), "through two links");
+  EXPECT_EQ(directory_listing(dir.path / "real"), std::vector<std::string>{"target.txt"});
+  // A loop of links is an error naming the file, not a hang.
+  std::filesystem::create_symlink("b", dir.path / "a");
+  std::filesystem::create_symlink("a", dir.path / "b");
+  EXPECT_THROW(AtomicFile(dir.file("a")), IoError);
+}
+
+TEST(AtomicWrite, DevicesAreWrittenInPlaceAndFoldersRefused) {
+  {
+    AtomicFile file("/dev/null");
+    EXPECT_TRUE(file.temp_path().empty());  // nothing to rename: /dev is left alone
+    file.write(std::string(3 << 20, 'x'));
+    file.commit();
+  }
+  EXPECT_TRUE(std::filesystem::is_character_file("/dev/null"));
+  TempDir dir;
+  try {
+    AtomicFile file(dir.path.string());
+    ADD_FAILURE() << "wrote over a folder";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("it is a folder"), std::string::npos) << e.what();
+  }
+}
+
+TEST(AtomicWrite, AReplacedFileKeepsItsPermissions) {
+  TempDir dir;
+  const std::string target = dir.file("script.sh");
+  { std::ofstream(target) << "old"; }
+  std::filesystem::permissions(target, std::filesystem::perms(0750));
+  AtomicFile file(target);
+  file.write(std::string_view("new"));
+  file.commit();
+  EXPECT_EQ(read_file(target), "new");
+  EXPECT_EQ(std::filesystem::status(target).permissions(), std::filesystem::perms(0750));
+}
+
+TEST(AtomicWrite, TemporariesOfProcessesThatAreGoneAreRemoved) {
+  TempDir dir;
+  // A temporary of this machine left by a process that no longer runs (a child that exited), one
+  // of a live process (this one's parent), one of another machine and a user's own hidden file.
+  std::string mine;
+  {
+    TempDir elsewhere;  // each folder is tidied once a process: the probe writes in another
+    AtomicFile probe(elsewhere.file("x"));
+    mine = std::filesystem::path(probe.temp_path()).filename().string();
+  }
+  ASSERT_TRUE(io::is_temporary_name(mine));
+  const std::string marker = ".meniscus-tmp-";
+  const std::string host_and_pid = mine.substr(mine.find(marker) + marker.size());
+  const std::string host = host_and_pid.substr(0, host_and_pid.rfind('-', host_and_pid.rfind('-') - 1));
+  const pid_t gone = fork();
+  if (gone == 0) _exit(0);
+  waitpid(gone, nullptr, 0);
+  const auto name = [&](const std::string& h, long pid) {
+    return fmt::format(".mesh.ply{}{}-{}-0123456789abcdef", marker, h, pid);
+  };
+  const std::string stale = name(host, gone), live = name(host, getppid()), remote = name("elsewhere", gone);
+  for (const std::string& f : {stale, live, remote, std::string(".mine.tmp"), std::string("mesh.ply")})
+    std::ofstream(dir.path / f) << "x";
+  AtomicFile file(dir.file("other.ply"));
+  file.write(std::string_view("data"));
+  file.commit();
+  const std::vector<std::string> left = directory_listing(dir.path);
+  EXPECT_EQ(std::count(left.begin(), left.end(), stale), 0) << "the stale temporary stayed";
+  for (const std::string& kept : {live, remote, std::string(".mine.tmp"), std::string("mesh.ply")})
+    EXPECT_EQ(std::count(left.begin(), left.end(), kept), 1) << kept << " was removed";
+  EXPECT_FALSE(io::is_temporary_name("mesh.ply"));
+  EXPECT_FALSE(io::is_temporary_name(".mesh.ply.meniscus-tmp-host-12-xyz"));
+}
+
+TEST(AtomicWrite, GzipIsStreamedIntoTheTemporaryWithoutAnyOtherFile) {
+  TempDir dir;
+  const std::string target = dir.file("data.txt.gz");
+  std::string plain;
+  for (int i = 0; i < 200000; ++i) plain += fmt::format("{} {}\n", i, i * i);
+  {
+    AtomicFile file(target);
+    file.write(plain.substr(0, plain.size() / 2));
+    // Half written: the hidden temporary is the only file, and it holds compressed bytes.
+    const std::vector<std::string> during = directory_listing(dir.path);
+    ASSERT_EQ(during.size(), 1u);
+    EXPECT_TRUE(io::is_temporary_name(during[0])) << during[0];
+    file.write(plain.substr(plain.size() / 2));
+    file.commit();
+  }
+  EXPECT_EQ(directory_listing(dir.path), std::vector<std::string>{"data.txt.gz"});
+  const std::string packed = read_file(target);
+  EXPECT_LT(packed.size(), plain.size() / 2);
+  EXPECT_EQ(uint8_t(packed[0]), 0x1f);
+  const io::ByteBuffer inflated = io::read_file_content(target);
+  EXPECT_EQ(std::string(inflated.begin(), inflated.end()), plain);
+}
+
+// Every output kind fails cleanly on a full disk (the file-size limit fails write(2) the way a
+// full disk does): an IoError naming the file, nothing left in its folder.
+TEST(AtomicWrite, EveryWriterFailsCleanlyWhenTheDiskFills) {
+  TriangleMesh mesh;
+  mesh.vertices = test::lattice_block(30, 30, 30, 0.1f).positions;
+  for (uint32_t i = 0; i + 2 < mesh.vertices.size(); i += 3) mesh.triangles.push_back({i, i + 1, i + 2});
+  mesh.normals.assign(mesh.vertices.size(), Vec3f{0, 0, 1});
+  const ParticleSet particles = test::lattice_block(12, 12, 12, 0.1f);
+  Params field_params = resolve_params(particles, Params{});
+  Image picture;
+  picture.width = picture.height = 256;
+  picture.rgb.resize(256 * 256 * 3);
+  std::mt19937 noise(7);  // incompressible: the PNG is larger than the limit
+  for (uint8_t& byte : picture.rgb) byte = uint8_t(noise());
+  std::vector<std::pair<std::string, std::function<void(const std::string&)>>> writers;
+  for (const char* ext : {"ply", "ply.gz", "bgeo", "bgeo.gz", "bgeo.sc", "obj", "vtk", "vtp", "usda"})
+    writers.push_back({std::string("mesh.") + ext, [&](const std::string& p) { write_mesh(p, mesh); }});
+  writers.push_back({"index.pvtp", [&](const std::string& p) {
+                       std::vector<std::string> pieces(3000, std::string(100, 'p'));
+                       io::write_pvtp_index(p, pieces, mesh);
+                     }});
+  writers.push_back({"picture.png", [&](const std::string& p) { write_png(p, picture); }});
+  writers.push_back({"stats.json", [&](const std::string& p) {
+                       io::AtomicFile f(p);
+                       f.write(std::string(100000, ' '));
+                       f.commit();
+                     }});
+  if (has_openvdb()) writers.push_back({"field.vdb", [&](const std::string& p) { write_field_vdb(p, particles, field_params); }});
+
+  struct rlimit saved {};
+  ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &saved), 0);
+  auto* previous = std::signal(SIGXFSZ, SIG_IGN);
+  for (const auto& [name, write] : writers) {
+    TempDir dir;
+    const std::string target = dir.file(name);
+    struct rlimit small = saved;
+    small.rlim_cur = 4096;
+    ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+    std::string message;
+    try {
+      write(target);
+    } catch (const IoError& e) {
+      message = e.what();
+    }
+    setrlimit(RLIMIT_FSIZE, &saved);
+    EXPECT_NE(message.find(target), std::string::npos) << name << ": " << message;
+    EXPECT_NE(message.find("File too large"), std::string::npos) << name << ": " << message;
+    EXPECT_TRUE(std::filesystem::is_empty(dir.path)) << name << " left a file";
+    write(target);  // with room it is written whole
+    EXPECT_EQ(directory_listing(dir.path), std::vector<std::string>{name});
+  }
+  std::signal(SIGXFSZ, previous);
 }
 
 }  // namespace

@@ -228,6 +228,44 @@ TEST(Config, MalformedJsonIsAFormatErrorWithTheLine) {
   }
 }
 
+TEST(Config, AFileIsOneObjectWithEachKeyOnceAndNumbersADoubleHolds) {
+  test::TempDir tmp;
+  struct Case {
+    std::string text, location, says;
+  };
+  const std::vector<Case> cases = {
+      {"{\n  \"steps_a\": 3,\n  \"steps_a\": 4\n}\n", "line 3", "the key \"steps_a\" is given twice"},
+      {"{\"clip_box\": [0, 0, 0, 1, 1, 1], \"steps_b\": 2,\n \"steps_b\": 3}", "line 2", "\"steps_b\" is given twice"},
+      {"{\"steps_a\": 3}\n{\"steps_b\": 4}\n", "line 2", "malformed JSON"},  // a second object after the first
+      {"{\"steps_a\": 3} trailing words", "line 1", "malformed JSON"},
+      {"{\n\"spacing\": 1e400}", "line 2", "the number 1e400 is beyond the range of a double"},
+  };
+  for (const Case& c : cases) {
+    const std::string path = tmp.file("config.json");
+    write_file(path, c.text);
+    try {
+      (void)read_config(path);
+      ADD_FAILURE() << "accepted " << c.text;
+    } catch (const FormatError& e) {
+      EXPECT_EQ(e.location(), c.location) << e.what();
+      EXPECT_NE(std::string(e.what()).find(c.says), std::string::npos) << e.what();
+      EXPECT_EQ(std::string(e.what()).find("json.exception"), std::string::npos) << e.what();
+    }
+  }
+  // Nested objects keep their own keys: a --stats file has "parameters" and "stages".
+  write_file(tmp.file("nested.json"), R"({"stages": {"read": 1}, "parameters": {"steps_a": 5, "read": 2}})");
+  EXPECT_THROW((void)read_config(tmp.file("nested.json")), InvalidParameter);  // "read" is no parameter
+  write_file(tmp.file("nested.json"), R"({"stages": {"read": 1}, "parameters": {"steps_a": 5}})");
+  EXPECT_EQ(read_config(tmp.file("nested.json")).steps_a, 5);
+  // A file that is not a configuration (a wrong path, a device) is refused past 16 MB, not read whole.
+  try {
+    (void)read_config("/dev/zero");
+    ADD_FAILURE() << "read /dev/zero as a configuration";
+  } catch (const ResourceError& e) {
+    EXPECT_NE(std::string(e.what()).find("16.0 MB a configuration file may hold"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Config, EveryKeyOfAStatsFileRoundTripsToIdenticalParams) {
   // Every parameter away from its default, so a key that did not round-trip would show.
   ParticleSet particles = test::lattice_block(6, 6, 6, 0.1f, 0.1f, 3);

@@ -223,6 +223,25 @@ TEST(BgeoClassic, WrongMagicVersionHugeCountsAndStringType) {
   expect_format_error([&] { read_particles(path); }, {path, "byte 41", "STRING"});
 }
 
+TEST(BgeoClassic, CountsThatLeaveBytesOverAreRefused) {
+  // One point too few in the header: the last point's bytes are left over after the detail
+  // attributes, where only the 00 FF trailer may stand.
+  const std::string raw = gunzipped(data_file("dam_break_frame_9_6859_particles.bgeo"));
+  TempDir dir;
+  const std::string path = dir.file("short.bgeo");
+  std::string shorter = raw;
+  shorter[12] = char(uint8_t(shorter[12]) - 1);  // 6859 → 6858 (big-endian int32 at byte 9)
+  ASSERT_EQ(be_i32(shorter, 9), 6858);
+  write_file(path, shorter);
+  expect_format_error([&] { read_particles(path); }, {path, "expected the end of the file after the 6858 points",
+                                                      "more bytes"});
+  // Anything after the trailer too.
+  write_file(path, raw + "x");
+  expect_format_error([&] { read_particles(path); }, {path, "found 3 more bytes"});  // 00 ff x
+  write_file(path, raw);
+  EXPECT_EQ(read_particles(path).size(), 6859u);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Writer
 

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <charconv>
 #include <cmath>
 #include <optional>
 
@@ -178,6 +179,20 @@ int run_inspect(const InspectArgs& a) {
   return 0;
 }
 
+namespace {
+
+/// A finite number ≥ 0, said plainly when it is not (CLI11's own ranges print DBL_MAX in full).
+const CLI::Validator kNonNegative(
+    [](std::string& text) -> std::string {
+      double v = 0;
+      const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+      const bool ok = ec == std::errc() && end == text.data() + text.size() && std::isfinite(v) && v >= 0;
+      return ok ? std::string() : fmt::format("'{}' is not a finite number ≥ 0", text);
+    },
+    "≥ 0");
+
+}  // namespace
+
 CLI::App* add_inspect_command(CLI::App& app, InspectArgs& inspect) {
   CLI::App* cmd = app.add_subcommand("inspect", "quality metrics of a mesh: topology, valence, angles, constraints");
   cmd->add_option("mesh", inspect.mesh, "mesh file (.ply, .obj, .vtk, .bgeo …), or a sequence pattern (mesh_####.ply)")
@@ -188,16 +203,16 @@ CLI::App* add_inspect_command(CLI::App& app, InspectArgs& inspect) {
   cmd->add_option("--particles", inspect.particles, "the particles it was made from: constraint residual, "
                                                     "particles left outside (a sequence: the spacing for "
                                                     "the flicker cap, estimated on the first frame)");
-  cmd->add_option("--spacing", inspect.spacing, "particle spacing (default: estimated)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--spacing", inspect.spacing, "particle spacing (default: estimated)")->check(kNonNegative);
   cmd->add_option("--r-inner", inspect.r_inner, "inner constraint radius (default 0.5 r_outer)")
-      ->check(CLI::NonNegativeNumber);
-  cmd->add_option("--r-outer", inspect.r_outer, "outer constraint radius (default 1.0 d)")->check(CLI::NonNegativeNumber);
+      ->check(kNonNegative);
+  cmd->add_option("--r-outer", inspect.r_outer, "outer constraint radius (default 1.0 d)")->check(kNonNegative);
   cmd->add_option("--previous", inspect.previous,
                   "the previous frame's mesh: flicker = distance of each vertex to its surface");
   cmd->add_option("--flicker-cap", inspect.flicker_cap,
                   "with --previous: distances are searched up to this far, farther vertices count at it "
                   "(default 4 spacings, or 16 mean edges of the previous mesh; 0: no cap)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(kNonNegative);
   cmd->add_flag("--json", inspect.json, "print the metrics as JSON");
   return cmd;
 }

@@ -245,7 +245,8 @@ std::string describe(const Where& w) {
 class BinaryBody {
  public:
   BinaryBody(const Source& source, const Header& header)
-      : cursor_(source.bytes, source.path, source.gzip),
+      : bytes_(source.bytes),
+        cursor_(source.bytes, source.path, source.gzip),
         endian_(header.encoding == Encoding::binary_big_endian ? Endian::big : Endian::little) {
     cursor_.seek(header.body_offset, "the body");
   }
@@ -299,7 +300,19 @@ class BinaryBody {
 
   [[noreturn]] void fail_last(const std::string& message) const { cursor_.fail_at(last_, message); }
 
+  /// After the last element: nothing but whitespace may follow (a count too low leaves records).
+  void check_end() const {
+    const std::size_t at = cursor_.offset(), size = cursor_.size();
+    const ByteView rest = cursor_.remaining() ? ByteView(bytes_.data() + at, size - at) : ByteView();
+    const bool blank = std::all_of(rest.begin(), rest.end(), [](uint8_t c) { return c == '\n' || c == '\r' || c == ' '; });
+    if (!blank)
+      cursor_.fail_at(at, fmt::format("expected the end of the file after the elements its header counts, found {} more "
+                                      "bytes (do the counts match the data?)",
+                                      rest.size()));
+  }
+
  private:
+  ByteView bytes_;
   ByteCursor cursor_;
   Endian endian_;
   std::size_t last_ = 0;
@@ -382,6 +395,21 @@ class AsciiBody {
 
   [[noreturn]] void fail_last(const std::string& message) const {
     throw FormatError(file_, fmt::format("line {}", last_line_), message);
+  }
+
+  /// After the last element: nothing but whitespace may follow (a count too low leaves values).
+  void check_end() {
+    while (pos_ < text_.size() && std::string_view(" \t\r\n\f\v").find(text_[pos_]) != std::string_view::npos) {
+      if (text_[pos_] == '\n') ++line_;
+      ++pos_;
+    }
+    if (pos_ == text_.size()) return;
+    std::size_t end = pos_;
+    while (end < text_.size() && std::string_view(" \t\r\n\f\v").find(text_[end]) == std::string_view::npos) ++end;
+    throw FormatError(file_, fmt::format("line {}", line_),
+                      fmt::format("expected the end of the file after the elements its header counts, found '{}' "
+                                  "(do the counts match the data?)",
+                                  shorten(text_.substr(pos_, end - pos_))));
   }
 
  private:
@@ -529,6 +557,7 @@ void read_body(Body& body, const Header& header, const BodyTargets& targets) {
       skip_element(body, element);
     }
   }
+  body.check_end();
 }
 
 // ---------------------------------------------------------------------------------------------

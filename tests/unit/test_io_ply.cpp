@@ -638,6 +638,28 @@ TEST(PlyErrors, TruncatedBinaryBody) {
                        "truncated"});
 }
 
+TEST(PlyErrors, ACountTooLowLeavesDataAndIsRefused) {
+  TempDir dir;
+  const std::string path = dir.file("low.ply");
+  const std::string header =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+      "property float z\nend_header\n";
+  Encoder e{false, header};
+  e.put<float>(1).put<float>(2).put<float>(3).put<float>(4).put<float>(5).put<float>(6);
+  write_file(path, e.bytes);
+  expect_format_error([&] { read_particles(path); },
+                      {path, "byte " + std::to_string(header.size() + 12), "found 12 more bytes",
+                       "do the counts match the data?"});
+  // A final newline or CR-LF after the data is no data.
+  write_file(path, e.bytes.substr(0, header.size() + 12) + "\r\n");
+  EXPECT_EQ(read_particles(path).size(), 1u);
+  // ASCII: a value after the counted ones.
+  write_file(path, kXyzHeader + "end_header\n1 2 3\n4 5 6\n7 8 9\n");
+  expect_format_error([&] { read_particles(path); }, {path, "line 10", "found '7'"});
+  write_file(path, kXyzHeader + "end_header\n1 2 3\n4 5 6\n\n  \n");
+  EXPECT_EQ(read_particles(path).size(), 2u);
+}
+
 TEST(PlyErrors, AsciiNonNumericAndTruncated) {
   TempDir dir;
   const std::string path = dir.file("text.ply");

@@ -257,7 +257,7 @@ TEST(AtomicWrite, GzipIsStreamedIntoTheTemporaryWithoutAnyOtherFile) {
   TempDir dir;
   const std::string target = dir.file("data.txt.gz");
   std::string plain;
-  for (int i = 0; i < 200000; ++i) plain += fmt::format("{} {}\n", i, i * i);
+  for (int64_t i = 0; i < 200000; ++i) plain += fmt::format("{} {}\n", i, i * i);
   {
     AtomicFile file(target);
     file.write(plain.substr(0, plain.size() / 2));

@@ -14,6 +14,7 @@
 #include <fmt/format.h>
 #include <functional>
 #include <random>
+#include <thread>
 
 #include "field/vdb_export.hpp"
 #include "io/atomic_file.hpp"
@@ -274,6 +275,38 @@ TEST(AtomicWrite, GzipIsStreamedIntoTheTemporaryWithoutAnyOtherFile) {
   EXPECT_EQ(uint8_t(packed[0]), 0x1f);
   const io::ByteBuffer inflated = io::read_file_content(target);
   EXPECT_EQ(std::string(inflated.begin(), inflated.end()), plain);
+}
+
+TEST(AtomicWrite, TwoWritersOfOneTargetBothFinishAndOneWholeFileIsLeft) {
+  TempDir dir;
+  const std::string target = dir.file("shared.ply.gz");
+  const std::string a(4 << 20, 'a'), b(4 << 20, 'b');
+  std::vector<std::string> errors(2);
+  std::thread first([&] {
+    try {
+      AtomicFile f(target);
+      f.write(a);
+      f.commit();
+    } catch (const std::exception& e) {
+      errors[0] = e.what();
+    }
+  });
+  std::thread second([&] {
+    try {
+      AtomicFile f(target);
+      f.write(b);
+      f.commit();
+    } catch (const std::exception& e) {
+      errors[1] = e.what();
+    }
+  });
+  first.join();
+  second.join();
+  EXPECT_EQ(errors, std::vector<std::string>(2));
+  const io::ByteBuffer content = io::read_file_content(target);
+  const std::string got(content.begin(), content.end());
+  EXPECT_TRUE(got == a || got == b) << "a mix of the two writes";
+  EXPECT_EQ(directory_listing(dir.path), std::vector<std::string>{"shared.ply.gz"});
 }
 
 // Every output kind fails cleanly on a full disk (the file-size limit fails write(2) the way a

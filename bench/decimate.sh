@@ -4,7 +4,7 @@
 # independently (bench/surface_distance.py: VTK's locator, every vertex and 100,000 random points
 # on each mesh, both ways) against the bound E·d.
 #   bash bench/decimate.sh [BUILD_DIR] [E] [SPLASH_PARTICLES]    defaults: build/release 0.02 200000
-# Prints a markdown table (README "Smaller meshes").
+# Prints a markdown table (docs/cli.md "Clipping and decimation").
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/build/release}

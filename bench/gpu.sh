@@ -9,7 +9,7 @@
 #   5. compute-sanitizer memcheck, racecheck, initcheck and synccheck on the device stage tests.
 # Every section runs even when one fails; the report ends with a verdict per section, and the
 # script exits non-zero if any failed. About 8 minutes on an H100 with 16 cores.
-#   bash bench/gpu.sh OUT_DIR            writes OUT_DIR/gpu_report.txt (the build goes to build/gpu)
+#   bash bench/gpu.sh OUT_DIR            writes the report gpu_report.txt into OUT_DIR (the build goes to build/gpu)
 #   MENISCUS_GPU_PREBUILT=1 bash bench/gpu.sh OUT_DIR   uses the build in build/gpu as it is (made on
 #                                        another machine and unpacked here: bench/gpu-bundle.sh)
 set -uo pipefail

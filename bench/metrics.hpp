@@ -1,5 +1,5 @@
 // meniscus bench — quality of any triangle mesh (ours or OpenVDB's) against the particles it
-// should enclose: DESIGN §5 metrics plus "particles left outside" and top-face flatness.
+// should enclose: the quality metrics of `meniscus inspect` plus "particles left outside" and top-face flatness.
 #pragma once
 
 #include <cstddef>

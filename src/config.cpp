@@ -1,5 +1,5 @@
 // meniscus — parameters by name: presets, the artist controls (smoothness, detail) and JSON
-// configuration files (README "Artist controls"). One table of keys serves the CLI's --config,
+// configuration files (docs/cli.md "Artist controls"). One table of keys serves the CLI's --config,
 // the Python keywords and the Blender panel.
 #include "meniscus/config.hpp"
 
@@ -56,7 +56,7 @@ constexpr double kStepsAAtFull = 40, kStepsBAtFull = 20, kStepsFreeAtFull = 6;
 
 // Every preset sets the same settings (so switching presets never leaves one behind); the
 // radii go back to "derive" (0) so that r_outer_factor decides. Measured on the jittered block,
-// lone particles, stretched sheets and the real frames of tests/data (README "Artist controls").
+// lone particles, stretched sheets and the real frames of tests/data (docs/cli.md "Artist controls").
 struct Preset {
   const char* name;
   double detail, r_outer_factor;

@@ -70,8 +70,9 @@ const std::vector<Entry>& entries() {
 
     // --- geometry
     number("spacing", "geometry", 0, kUnbounded, false, "estimated from the particles", "length",
-           "particle separation d", MENISCUS_MEMBER(spacing));
-    number("voxel_size", "geometry", 0, kUnbounded, false, "d / (2·detail)", "length", "field resolution h",
+           "particle separation d (Houdini's particle separation)", MENISCUS_MEMBER(spacing));
+    number("voxel_size", "geometry", 0, kUnbounded, false, "d / (2·detail)", "length",
+           "field resolution h (Marching Tiles: a tile period of 2h, the same sample density)",
            MENISCUS_MEMBER(voxel_size));
     number("detail", "geometry", 0, 8, true, "", "", "resolution multiplier: voxel size d / (2·detail); 2 ≈ 4× the triangles",
            [](const Params& p) -> json { return p.detail; },
@@ -108,13 +109,15 @@ const std::vector<Entry>& entries() {
     // --- smoothing
     integer("steps_a", "smoothing", kMaxSweeps, "", "sweeps", "constrained graph-Laplacian sweeps", MENISCUS_MEMBER(steps_a));
     integer("steps_b", "smoothing", kMaxSweeps, "", "sweeps", "constrained bilaplacian sweeps", MENISCUS_MEMBER(steps_b));
-    integer("steps_free", "smoothing", kMaxSweeps, "", "sweeps", "unconstrained bilaplacian sweeps at the end",
+    integer("steps_free", "smoothing", kMaxSweeps, "", "sweeps",
+            "unconstrained bilaplacian sweeps at the end: smoother normals, vertices up to about 0.1 d out of their "
+            "shells (no particle outside); 0 keeps every vertex in its shell",
             MENISCUS_MEMBER(steps_free));
     number("relax", "smoothing", 0, 1, false, "1", "", "relaxation ω of the A sweeps", MENISCUS_MEMBER(relax));
     t.back().spec.why = "Jacobi sweeps diverge when over-relaxed";
     number("relax_b", "smoothing", 0, 1, true, "", "",
            "largest damping of the B sweeps; each vertex takes at most its stable one", MENISCUS_MEMBER(relax_b));
-    other("solver", ParamType::choice, "smoothing", "sweeps: chebyshev (Jacobi, the A sweeps accelerated) or jacobi (plain)",
+    other("solver", ParamType::choice, "smoothing", "sweeps: chebyshev (Jacobi, the A sweeps accelerated) or jacobi (plain); gauss-seidel is refused",
           [](const Params& p) -> json { return to_string(p.solver); },
           [](Params& p, const json& v) { p.solver = parse_solver(v.get<std::string>()); }, {"chebyshev", "jacobi"});
     integer("rebuild_b", "smoothing", kMaxSweeps, "once, after the A sweeps", "sweeps",
@@ -128,7 +131,8 @@ const std::vector<Entry>& entries() {
            MENISCUS_MEMBER(velocity_min_weight));
 
     // --- post-processing
-    number("erode", "post-processing", 0, kUnbounded, false, "", "length", "move the surface inwards by this distance",
+    number("erode", "post-processing", 0, kUnbounded, false, "", "length",
+           "move the finished surface inwards along its normals (warns above h/2, counts folded triangles)",
            MENISCUS_MEMBER(erode));
     integer("min_particles", "post-processing", 1e9, "keep every droplet", "particles",
             "drop surface components enclosing fewer particles than this (strays, particles stuck in a wall)",
@@ -138,7 +142,7 @@ const std::vector<Entry>& entries() {
     other("clip_box", ParamType::numbers, "post-processing",
           "xmin,ymin,zmin,xmax,ymax,zmax: cut the finished surface by this box, open along the cut",
           MENISCUS_MEMBER(clip_box), {}, 6);
-    other("clip_cap", ParamType::flag, "post-processing", "close the clip_box cut with the box's faces (stays watertight)",
+    other("clip_cap", ParamType::flag, "post-processing", "close the clip box's cut with the box's faces (the mesh stays watertight)",
           MENISCUS_MEMBER(clip_cap));
     number("decimate", "post-processing", 0, 1, false, "keep every triangle", "spacings",
            "simplify the mesh while it stays within this many spacings of the full one (e.g. 0.02)",
@@ -146,16 +150,19 @@ const std::vector<Entry>& entries() {
     other("transfer", ParamType::names, "post-processing", "particle attributes to carry onto the vertices",
           MENISCUS_MEMBER(transfer));
     number("transfer_radius", "post-processing", 0, kUnbounded, false, "2 d", "length",
-           "radius of the attribute transfer kernel", MENISCUS_MEMBER(transfer_radius));
+           "radius of the transfer kernel (1 − (r/R)²)³; the nearest particle where none is inside",
+           MENISCUS_MEMBER(transfer_radius));
 
     // --- execution
     integer("threads", "execution", 0 /* parameter_max */, "the CPUs granted", "",
-            "worker threads", MENISCUS_MEMBER(threads));
+            "worker threads (by default the CPU affinity, or SLURM_CPUS_PER_TASK where Slurm grants fewer)",
+            MENISCUS_MEMBER(threads));
     other("backend", ParamType::choice, "execution", "where to run: auto (cuda when a device is there), cpu, cuda",
           [](const Params& p) -> json { return to_string(p.backend); },
           [](Params& p, const json& v) { p.backend = parse_backend(v.get<std::string>()); }, {"auto", "cpu", "cuda"});
     number("max_memory_gb", "execution", 0, 1e6, false, "90 % of the memory granted", "GB",
-           "refuse work (and stop reading) past this much memory", MENISCUS_MEMBER(max_memory_gb), "--max-memory");
+           "refuse work, and stop reading, past this much memory (the grant: RAM, cgroup, Slurm's --mem)",
+           MENISCUS_MEMBER(max_memory_gb), "--max-memory");
 
     // --- the controls: they set other parameters
     other("preset", ParamType::choice, "controls", "preview (fast), production (the defaults) or droplets (keeps thin "
@@ -218,7 +225,9 @@ std::string number_text(double v) { return fmt::format("{:g}", v); }
 
 /// "must be <accepted values>", with the range's reason where the table gives one.
 std::string must_be(const ParamSpec& s) {
-  return s.why.empty() ? "must be " + accepted_values(s) : fmt::format("must be {}: {}", accepted_values(s), s.why);
+  std::string accepts = accepted_values(s);
+  if (s.key == "threads") accepts += fmt::format(" ({:g} on this machine)", parameter_max(s));
+  return s.why.empty() ? "must be " + accepts : fmt::format("must be {}: {}", accepts, s.why);
 }
 
 bool in_range(const ParamSpec& s, double v) {
@@ -277,6 +286,8 @@ std::string accepted_values(const ParamSpec& s) {
       return fmt::format("a number from {} to {}{}", number_text(min), number_text(max), zero);
     }
     case ParamType::integer:
+      if (s.key == "threads")  // the range depends on the machine: the table says the rule
+        return fmt::format("a whole number from 0 to {:g} per CPU{}", kThreadsPerCpu, zero);
       return fmt::format("a whole number from {} to {:.0f}{}", number_text(s.min), max, zero);
     case ParamType::flag: return "true or false";
     case ParamType::choice: {

@@ -1,5 +1,5 @@
 // meniscus — the pipeline: runs the stages in order, times them, reports progress
-// (DESIGN §1: hash grid → sparse distance field → extraction → weld → constrained smoothing →
+// (docs/method.md: hash grid → sparse distance field → extraction → weld → constrained smoothing →
 // erosion → attribute transfer → normals).
 #include <unistd.h>
 
@@ -510,10 +510,8 @@ bool run_on_device(const PipelineInput& in, Result& result, const ProgressFn& pr
   if (!devices.empty() && !have_device) why = "the CUDA device is emulated (a test build)";
   if (p.backend == Backend::cuda && !have_device)
     throw ResourceError(fmt::format("--backend cuda: no CUDA backend available ({}); use --backend cpu or auto", why));
-  if (!have_device) {
-    if (cuda_built()) stats.warnings.push_back(fmt::format("backend auto: {}; running on the CPU", why));
-    return false;
-  }
+  // No device: auto runs on the CPU without a word each run (`meniscus info` says why there is none).
+  if (!have_device) return false;
   const std::size_t stages_before = stats.stages.size();
   try {
     cuda::reconstruct(in, stats, result.mesh, progress);
@@ -700,6 +698,8 @@ void finish_mesh(TriangleMesh& mesh, const Params& p, Stats& stats, const Progre
   if (!p.clip_box.empty()) {
     const ClipBox box{float(p.clip_box[0]), float(p.clip_box[1]), float(p.clip_box[2]),
                       float(p.clip_box[3]), float(p.clip_box[4]), float(p.clip_box[5])};
+    Vec3f lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+    for (const Vec3f& v : mesh.vertices) lo = min(lo, v), hi = max(hi, v);
     const ClipOutcome clip = StageTimer(stats, progress).run("clip", [&] { return clip_to_box(mesh, box, p.clip_cap); });
     stats.clipped_triangles = clip.removed_triangles;
     stats.cut_triangles = clip.cut_triangles;
@@ -707,9 +707,14 @@ void finish_mesh(TriangleMesh& mesh, const Params& p, Stats& stats, const Progre
     stats.cap_open_edges = clip.cap_defects;
     if (clip.cap_defects > 0)
       stats.warnings.push_back(fmt::format(
-          "clip_cap: {} edges left open where the cut's curves cross on a box face (the surface intersects itself "
+          "{}: {} edges left open where the cut's curves cross on a box face (the surface intersects itself "
           "there); the mesh is not watertight",
-          clip.cap_defects));
+          spelled("clip_cap"), clip.cap_defects));
+    if (mesh.triangles.empty() && clip.removed_triangles > 0)
+      stats.warnings.push_back(fmt::format(
+          "{} holds none of the surface: the mesh is empty (the surface spans {:g},{:g},{:g} to {:g},{:g},{:g})",
+          spelled_setting("clip_box", fmt::format("{:g}", fmt::join(p.clip_box, ","))), lo.x, lo.y, lo.z, hi.x, hi.y,
+          hi.z));
   }
   if (p.decimate > 0) {
     const DecimateOutcome d = StageTimer(stats, progress).run("decimate", [&] { return decimate(mesh, p.decimate * p.spacing); });
@@ -762,11 +767,17 @@ Result reconstruct(const ParticleSet& all_particles, const Params& params, const
     stats.backend = "cpu";
     CpuPipeline(in, result, progress).run();
   }
-  if (p.min_particles > 0)  // on the finished mesh, whichever backend made it
+  if (p.min_particles > 0) {  // on the finished mesh, whichever backend made it
     stats.removed_strays = StageTimer(stats, progress).run("strays", [&] {
       return remove_components_enclosing_few(result.mesh, particles.positions, float(std::max(p.r_outer, 2 * p.spacing)),
                                              std::size_t(p.min_particles));
     });
+    if (result.mesh.triangles.empty() && stats.removed_strays > 0)
+      stats.warnings.push_back(fmt::format("{} dropped every piece of the surface ({} of them, each enclosing fewer "
+                                           "particles): the mesh is empty",
+                                           spelled_setting("min_particles", std::to_string(p.min_particles)),
+                                           stats.removed_strays));
+  }
   finish_mesh(result.mesh, p, stats, progress);
   stats.vertices = result.mesh.vertices.size();
   stats.triangles = result.mesh.triangles.size();

@@ -1,4 +1,4 @@
-// meniscus — mesh quality metrics (DESIGN §5).
+// meniscus — mesh quality metrics (docs/cli.md "meniscus inspect").
 #include "meniscus/quality.hpp"
 
 #include <tbb/parallel_for.h>

@@ -1,4 +1,4 @@
-// meniscus — which stages a reconstruction runs, with which options (DESIGN §1): one description,
+// meniscus — which stages a reconstruction runs, with which options (docs/method.md): one description,
 // made once from the resolved parameters, that both pipelines follow — the CPU's (pipeline.cpp)
 // and the CUDA backend's (cuda/pipeline_cuda.cpp). A stage's own arithmetic lives in the stage;
 // what runs, in which order and with which values lives here.

@@ -1,4 +1,4 @@
-// meniscus — point-to-surface distance (DESIGN §5, frame-to-frame flicker): closest points on
+// meniscus — point-to-surface distance (frame-to-frame flicker, docs/cli.md "Sequences"): closest points on
 // triangles (Ericson 2005 §5.1.5) found through Embree's BVH (mesh/triangle_bvh.hpp).
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>

@@ -42,7 +42,7 @@ int run_inspect_sequence(const InspectArgs& a, const FramePattern& pattern) {
   std::optional<TriangleMesh> previous;
   int previous_frame = 0;
   double flicker_sum = 0, flicker_max = 0;
-  std::size_t pairs = 0, not_watertight = 0;
+  std::size_t pairs = 0, not_watertight = 0, beyond_cap = 0;
   for (const int frame : frames) {
     const std::string file = pattern.format(frame);
     TriangleMesh mesh = read_mesh(file);
@@ -61,26 +61,33 @@ int run_inspect_sequence(const InspectArgs& a, const FramePattern& pattern) {
       j["flicker"].update(flicker_json(f));
       flicker_sum += f.mean, flicker_max = std::max(flicker_max, f.max), ++pairs;
       line += fmt::format("; flicker against frame {}: mean {:.4g}, max {:.4g}", previous_frame, f.mean, f.max);
+      if (f.beyond_cap > 0)
+        line += fmt::format(" ({} vertices farther than the search's cap {:.4g}, counted at it)", f.beyond_cap, f.cap);
+      beyond_cap += f.beyond_cap;
     }
     if (!a.json) fmt::print("{}\n", line);
     list.push_back(std::move(j));
     if (a.flicker) previous = std::move(mesh), previous_frame = frame;
   }
   nlohmann::ordered_json summary = {{"frames", frames.size()}, {"not_watertight", not_watertight}};
-  if (a.flicker) summary["flicker"] = {{"pairs", pairs}, {"mean", pairs ? flicker_sum / double(pairs) : 0.0}, {"max", flicker_max}};
+  if (a.flicker)
+    summary["flicker"] = {{"pairs", pairs}, {"mean", pairs ? flicker_sum / double(pairs) : 0.0}, {"max", flicker_max},
+                          {"beyond_cap", beyond_cap}};
   if (a.json) {
     fmt::print("{}\n", nlohmann::ordered_json{{"sequence", a.mesh}, {"summary", summary}, {"frames", list}}.dump(2));
     return 0;
   }
   fmt::print("{} frames, {} not watertight", frames.size(), not_watertight);
-  if (a.flicker) fmt::print("; flicker mean {:.4g} over {} frame pairs, max {:.4g}", pairs ? flicker_sum / double(pairs) : 0.0, pairs, flicker_max);
+  if (a.flicker)
+    fmt::print("; flicker mean {:.4g} over {} frame pairs, max {:.4g}{}", pairs ? flicker_sum / double(pairs) : 0.0, pairs,
+               flicker_max, beyond_cap ? fmt::format(" ({} vertices at the search's cap)", beyond_cap) : std::string());
   fmt::print("\n");
   return 0;
 }
 
 }  // namespace
 
-/// Quality metrics of any mesh (docs/method.md "Quality metrics"), ours or another tool's.
+/// Quality metrics of any mesh (docs/cli.md "meniscus inspect"), ours or another tool's.
 int run_inspect(const InspectArgs& a) {
   if (const auto pattern = parse_frame_pattern(a.mesh)) return run_inspect_sequence(a, *pattern);
   if (!a.frames.empty() || a.flicker)

@@ -15,7 +15,7 @@ enum class SmoothingSolver { chebyshev, jacobi };
 /// Where the pipeline runs: `automatic` uses the CUDA backend when it is built and a device is
 /// there (else the CPU, with a warning in Stats when CUDA was built but no device is usable).
 enum class Backend { automatic, cpu, cuda };
-/// The scalar field whose level set is the initial surface (DESIGN §1.2).
+/// The scalar field whose level set is the initial surface (docs/fields.md).
 enum class FieldMethod { distance, metaball, sph, zhu_bridson, anisotropic };
 
 const char* to_string(Extractor e);
@@ -46,7 +46,7 @@ struct Params {
   double r_inner = 0;          ///< vertices are kept at least this far from particles; 0: 0.5 d
   Extractor extract = Extractor::tiles;
 
-  // --- field method (DESIGN §1.2; README "Field methods") ---------------------------------------
+  // --- field method (docs/fields.md) ---------------------------------------
   FieldMethod field = FieldMethod::distance;
   /// Level of the field that is the surface; 0: derive. metaball, sph, anisotropic: a density
   /// threshold, default half the field's value inside a uniform fluid of spacing d (metaball

@@ -1,4 +1,4 @@
-// meniscus — mesh quality metrics (DESIGN §5): topology, valence, angles, constraint residual,
+// meniscus — mesh quality metrics (docs/cli.md "meniscus inspect"): topology, valence, angles, constraint residual,
 // flatness, volume. Independent of the pipeline: they judge any mesh, ours or another tool's.
 #pragma once
 

@@ -1,4 +1,4 @@
-// meniscus — the CUDA backend's pipeline (DESIGN §1): one upload, every stage on the device, one
+// meniscus — the CUDA backend's pipeline (docs/method.md): one upload, every stage on the device, one
 // download. Stage times are device times (CUDA events around each stage's work).
 #include <cuda_runtime.h>
 #include <fmt/format.h>

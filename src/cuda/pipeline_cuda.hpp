@@ -1,10 +1,10 @@
-// meniscus — the CUDA backend's pipeline (DESIGN §1, every stage on the device): one upload of
+// meniscus — the CUDA backend's pipeline (docs/gpu.md: every stage on the device): one upload of
 // the particles, hash grid → sparse distance field → extraction → weld → void removal →
 // constrained smoothing → erosion → attribute transfer → normals, one download of the mesh; with
 // the field methods of issue #7 (kernel fields, particle smoothing, anisotropic kernels and
 // ellipsoid constraints, velocity weighting) as on the CPU.
 // The per-element math is the CPU's (*_impl.hpp headers with MENISCUS_HD), in the same order,
-// so the two backends agree (README "GPU (CUDA)": parity).
+// so the two backends agree (docs/gpu.md).
 #pragma once
 
 #include "meniscus/mesh.hpp"

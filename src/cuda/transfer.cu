@@ -1,5 +1,5 @@
 // meniscus — erosion, area-weighted vertex normals and attribute transfer on the device
-// (DESIGN §1.5; Zhu & Bridson 2005 weights). Normals gather each vertex's triangles in ascending
+// (docs/method.md; Zhu & Bridson 2005 weights). Normals gather each vertex's triangles in ascending
 // order — the order in which the CPU's serial scatter adds them — so the sums are identical.
 #include "cuda/stages_cuda.hpp"
 

@@ -1,4 +1,4 @@
-// meniscus — the kernel-sum field methods on the sparse block lattice (DESIGN §1.2): Blinn 1982
+// meniscus — the kernel-sum field methods on the sparse block lattice (docs/fields.md): Blinn 1982
 // metaballs, Müller, Charypar & Gross 2003 (SPH colour field), Zhu & Bridson 2005, Yu & Turk
 // 2010 (anisotropic kernels). Each is stored in the form the extraction expects of the distance
 // field — larger outside, the surface at the level 0 — so extract_surface(field, 0, …) works

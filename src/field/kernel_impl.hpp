@@ -1,5 +1,5 @@
-// meniscus — the per-particle kernels of the field methods (DESIGN §1.2), shared by the CPU and
-// CUDA backends: Blinn 1982 (metaballs, with DESIGN's polynomial kernel), Müller, Charypar &
+// meniscus — the per-particle kernels of the field methods (docs/fields.md), shared by the CPU and
+// CUDA backends: Blinn 1982 (metaballs, with a polynomial kernel), Müller, Charypar &
 // Gross 2003 (SPH, poly6), Zhu & Bridson 2005, Yu & Turk 2010 (anisotropic kernels).
 #pragma once
 
@@ -14,7 +14,7 @@
 
 namespace meniscus {
 
-/// Blinn's metaball kernel as DESIGN §1.2 writes it, W = (r/√2R)⁴ − (r/√2R)² + 0.25 for r < R:
+/// Blinn's metaball kernel in its polynomial form, W = (r/√2R)⁴ − (r/√2R)² + 0.25 for r < R:
 /// 0.25 at the centre, 0 (with zero slope) at r = R.
 MENISCUS_HD inline float metaball_kernel(float r2, float R) {
   if (r2 >= R * R) return 0.0f;

@@ -1,4 +1,4 @@
-// meniscus — carrying particle attributes onto mesh vertices (DESIGN §1.5).
+// meniscus — carrying particle attributes onto mesh vertices (docs/method.md).
 #pragma once
 
 #include <span>

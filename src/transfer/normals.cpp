@@ -1,4 +1,4 @@
-// meniscus — area-weighted vertex normals and erosion (DESIGN §1.5).
+// meniscus — area-weighted vertex normals and erosion (docs/method.md).
 #include "transfer/normals.hpp"
 #include "common/huge_pages.hpp"
 #include "common/prefetch.hpp"

@@ -297,8 +297,8 @@ TEST(CudaDispatch, CudaUsesTheDeviceAutoOnlyARealOne) {
   const Result r = reconstruct(ps, p);
   EXPECT_EQ(r.stats.backend, emulated_device() ? "cpu" : "cuda");
   if (emulated_device()) {
-    EXPECT_TRUE(std::any_of(r.stats.warnings.begin(), r.stats.warnings.end(),
-                            [](const std::string& w) { return w.find("emulated") != std::string::npos; }));
+    // auto without a real device runs on the CPU without a word per run: `meniscus info` says why.
+    EXPECT_TRUE(r.stats.warnings.empty()) << r.stats.warnings.front();
     std::string out;
     ASSERT_EQ(test::run_command(test::cli() + " info", &out), 0);
     EXPECT_NE(out.find("EMULATED"), std::string::npos) << out;

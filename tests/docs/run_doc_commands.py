@@ -1,10 +1,10 @@
 #!/usr/bin/python3
 """Runs every command block of the README and docs/cli.md, so that none goes stale.
 
-Each page's `sh` blocks run in order, with bash -e, in a fresh folder that looks like the
-repository root: tests/, blender/, tools/ … are links to the real ones, `build/release` is the
-build under test, `meniscus` is on the PATH, and sim/ and geo/ hold copies of bundled frames
-as the examples' sequences (sim/fluid_0001.bgeo …, geo/fluid.0001.bgeo.sc …).
+The build under test is installed (`cmake --install`) into a fresh prefix, as a user's would be,
+and each page's `sh` blocks run in order, with bash -e, in a fresh folder that holds only links
+to the repository's data (tests/, tools/, docs/ …), with the prefix's `meniscus` first on the PATH
+and its Python module on the PYTHONPATH: nothing of the build folder is used.
 
 The README's first two blocks install packages and build: .ci/run runs them as they are
 (tests/docs/doc_blocks.py extracts them), so they are skipped here.
@@ -25,24 +25,31 @@ from doc_blocks import blocks  # noqa: E402
 PAGES = {"README.md": 2, "docs/cli.md": 0}  # page → how many leading blocks .ci/run runs instead
 
 
-def sandbox(repo, build, where):
+def sandbox(repo, where):
     for name in ("tests", "blender", "tools", "python", "docs", "bench", "include", "src"):
         (where / name).symlink_to(repo / name)
-    (where / "build").mkdir()
-    (where / "build" / "release").symlink_to(build)
-    for folder in ("sim", "geo", "out", "bin"):
-        (where / folder).mkdir()
-    frame = repo / "tests" / "data" / "dam_break_frame_9_6859_particles.bgeo"
-    for i in (1, 2, 3):
-        shutil.copy(frame, where / "sim" / f"fluid_{i:04d}.bgeo")
-    cache = repo / "tests" / "data" / "houdini_pop_splatter_13883_points.bgeo.sc"
-    for i in (1, 2):
-        shutil.copy(cache, where / "geo" / f"fluid.{i:04d}.bgeo.sc")
-    (where / "bin" / "meniscus").symlink_to(build / "meniscus")
+    (where / "out").mkdir()
+
+
+def install(build, prefix):
+    """`cmake --install` of the build into prefix; the environment that uses it alone."""
+    subprocess.run(["cmake", "--install", str(build), "--prefix", str(prefix)], check=True,
+                   stdout=subprocess.DEVNULL)
+    env = dict(os.environ, PATH=f"{prefix / 'bin'}:/usr/local/bin:/usr/bin:/bin")
+    packages = sorted(prefix.glob("lib/python3*/dist-packages"))
+    if packages:
+        env["PYTHONPATH"] = str(packages[0])
+    return env
 
 
 def main():
     repo, build = pathlib.Path(sys.argv[1]).resolve(), pathlib.Path(sys.argv[2]).resolve()
+    prefix = pathlib.Path(tempfile.mkdtemp(prefix="meniscus-prefix-"))
+    env = install(build, prefix)
+    found_meniscus = shutil.which("meniscus", path=env["PATH"])
+    print(f"meniscus on the PATH: {found_meniscus}")
+    if found_meniscus != str(prefix / "bin" / "meniscus"):
+        sys.exit(f"expected the installed meniscus first on the PATH, found {found_meniscus}")
     failures = 0
     for page, skipped in PAGES.items():
         found = blocks(repo / page)
@@ -52,8 +59,7 @@ def main():
             continue
         with tempfile.TemporaryDirectory() as tmp:
             where = pathlib.Path(tmp)
-            sandbox(repo, build, where)
-            env = dict(os.environ, PATH=f"{where / 'bin'}:{os.environ['PATH']}")
+            sandbox(repo, where)
             for n, block in enumerate(found, 1):
                 if n <= skipped:
                     print(f"{page} block {n}: run by .ci/run")
@@ -66,6 +72,7 @@ def main():
                 if run.returncode != 0:
                     failures += 1
                     print("---- block ----\n" + block + "---- output ----\n" + run.stdout[-4000:])
+    shutil.rmtree(prefix, ignore_errors=True)
     sys.exit(1 if failures else 0)
 
 

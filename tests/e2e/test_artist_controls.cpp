@@ -1,4 +1,4 @@
-// End-to-end tests of the artist controls (README "Artist controls"): what smoothness, detail and
+// End-to-end tests of the artist controls (docs/cli.md "Artist controls"): what smoothness, detail and
 // the presets do to real meshes, with the numbers they were tuned on.
 #include <gtest/gtest.h>
 

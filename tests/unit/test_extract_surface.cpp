@@ -253,7 +253,7 @@ INSTANTIATE_TEST_SUITE_P(Extractors, ExtractSurface,
                          });
 
 // Marching Tiles guarantees valence ≥ 5 (every tiling edge has ≥ 5 tetrahedra); Marching Cubes on
-// the same sphere does not — the reason the tile exists (DESIGN §1.3).
+// the same sphere does not — the reason the tile exists (docs/method.md "extract").
 TEST(ExtractSurfaceValence, TilesHaveValenceAtLeastFiveAndCubesDoNot) {
   const float R = 1, h = 0.1f;
   const Vec3f c{0.13f, -0.07f, 0.21f}, margin{R + 2 * h, R + 2 * h, R + 2 * h};

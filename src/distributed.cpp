@@ -18,7 +18,7 @@
 #include "meniscus/errors.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "mesh/vertex_order_impl.hpp"
-#include "stage_plan.hpp"
+#include "pipeline/stage_plan.hpp"
 #include "transfer/normals.hpp"
 
 namespace meniscus {

@@ -11,6 +11,7 @@
 
 #include "grid/hash_grid.hpp"
 #include "mesh/triangle_bvh.hpp"
+#include "mesh/volume_impl.hpp"
 
 namespace meniscus {
 
@@ -189,11 +190,7 @@ AngleReport triangle_angles(const TriangleMesh& mesh) {
 
 double signed_volume(const TriangleMesh& mesh) {
   double v = 0;
-  for (const Triangle& t : mesh.triangles) {
-    const Vec3f a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], c = mesh.vertices[t[2]];
-    const double ax = a.x, ay = a.y, az = a.z, bx = b.x, by = b.y, bz = b.z, cx = c.x, cy = c.y, cz = c.z;
-    v += ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx);
-  }
+  for (const Triangle& t : mesh.triangles) v += signed_volume6(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
   return v / 6.0;
 }
 

@@ -28,7 +28,7 @@
 #include "meniscus/io.hpp"
 #include "meniscus/memory.hpp"
 #include "meniscus/reconstruct.hpp"
-#include "stage_plan.hpp"
+#include "pipeline/stage_plan.hpp"
 
 namespace meniscus::cli {
 namespace {

@@ -14,8 +14,8 @@ std::size_t peak_resident_bytes();
 /// first large block freed, after which arrays of up to that size come from the heap and their
 /// pages stay resident after free: the stages of a run each allocate and free arrays of tens to
 /// hundreds of MB, so the peak resident memory then counts freed arrays of earlier stages too.
-/// Measured on a 1 M-particle block (default schedule, 2 threads): peak 291 MB → 246 MB, time
-/// unchanged. Process-wide and not reversible; the CLI and the benchmarks call it at start-up, a
+/// On a 1 M-particle block it lowers the peak by about a sixth, at the same speed. Process-wide
+/// and not reversible; the CLI and the benchmarks call it at start-up, a
 /// host application decides for itself. Returns false where it does not apply (not glibc).
 bool release_large_blocks_eagerly();
 
@@ -25,8 +25,8 @@ bool release_large_blocks_eagerly();
 /// smoothing and at the end of the run the heap's free pages go back to the system (malloc_trim)
 /// and large blocks get their own mappings again, so the peak stays that of
 /// release_large_blocks_eagerly(): the smoothing's arrays are many and of many sizes, and a heap
-/// would fragment under them. Measured on splash 1M without smoothing (2 threads): total 2.9-3.6
-/// → 2.7 s, peak +1 %; the full pipeline's peak +1 %. Process-wide: it changes malloc's
+/// would fragment under them. On splash 1M the stages before the smoothing run about a sixth
+/// faster for a peak 1 % higher (bench/RESULTS.md). Process-wide: it changes malloc's
 /// settings while a run is in those stages and then leaves glibc's default mmap count and trim
 /// threshold (its dynamic thresholds off, as release_large_blocks_eagerly() leaves them). The CLI
 /// and the benchmarks turn it on at start-up. Returns false where it does not apply (not glibc).

@@ -13,7 +13,7 @@ std::vector<CudaDeviceInfo> cuda_devices(std::string* reason) {
 }
 
 namespace cuda {
-void reconstruct(const PipelineInput&, Stats&, TriangleMesh&, const ProgressFn&) {
+std::unique_ptr<StageBackend> make_device_stages(const PipelineInput&, Stats&, const ProgressFn&) {
   throw ResourceError("the CUDA backend is not built in (built without CUDA; configure with -DMENISCUS_CUDA=ON)");
 }
 }  // namespace cuda

@@ -10,6 +10,7 @@
 #include "cuda/relaxed.hpp"
 #include "cuda/stages_cuda.hpp"
 #include "mesh/ray_parity_impl.hpp"
+#include "mesh/volume_impl.hpp"
 #include "extract/edge_key.hpp"
 #include "extract/extract.hpp"
 #include "extract/marching_impl.hpp"
@@ -146,13 +147,9 @@ __global__ void vertex_position_kernel(const uint64_t* vertex_keys, uint64_t nv,
     Vec3i c0, c1;
     int s0 = 0, s1 = 0;
     edge_key_samples(vertex_keys[v], types, &c0, &s0, &c1, &s1);
-    const float t = edge_parameter(field.value(c0, s0), field.value(c1, s1), iso, kEdgeClamp);
-    // SampleLattice::sample_position, with the offsets passed by value.
-    const Vec3f p0 = Vec3f{float(c0.x) + c_offsets[s0][0], float(c0.y) + c_offsets[s0][1], float(c0.z) + c_offsets[s0][2]} *
-                     cell_size;
-    const Vec3f p1 = Vec3f{float(c1.x) + c_offsets[s1][0], float(c1.y) + c_offsets[s1][1], float(c1.z) + c_offsets[s1][2]} *
-                     cell_size;
-    vertices[v] = p0 + (p1 - p0) * t;
+    const Vec3f o0{c_offsets[s0][0], c_offsets[s0][1], c_offsets[s0][2]}, o1{c_offsets[s1][0], c_offsets[s1][1], c_offsets[s1][2]};
+    vertices[v] = edge_vertex(lattice_point(c0, o0, cell_size), lattice_point(c1, o1, cell_size), field.value(c0, s0),
+                              field.value(c1, s1), iso, kEdgeClamp);
   }
 }
 
@@ -322,9 +319,7 @@ __global__ void volume_kernel(const uint32_t* tris, uint64_t nt, const Vec3f* x,
   MENISCUS_GRID_STRIDE(t, nt) {
     const Vec3f a = x[tris[3 * t]], b = x[tris[3 * t + 1]], c = x[tris[3 * t + 2]];
     const uint32_t r = root[tris[3 * t]];
-    const double v = (double(a.x) * (double(b.y) * c.z - double(b.z) * c.y) -
-                      double(a.y) * (double(b.x) * c.z - double(b.z) * c.x) +
-                      double(a.z) * (double(b.x) * c.y - double(b.y) * c.x)) / 6.0;
+    const double v = signed_volume6(a, b, c) / 6.0;
     atomicAdd(&volume[r], v);
     store_relaxed(has + r, 1u);
   }

@@ -76,35 +76,44 @@ void check_fits(double bytes, const char* what) {
 
 namespace {
 
-/// The device pipeline: the stages of `plan`, in order, each timed with CUDA events, between one
-/// upload and one download.
-class DevicePipeline {
+/// The device's stages (pipeline/stages.hpp), each timed with CUDA events, between one upload and
+/// one download.
+class DeviceStages final : public StageBackend {
  public:
-  DevicePipeline(const PipelineInput& in, Stats& stats, const ProgressFn& progress)
+  DeviceStages(const PipelineInput& in, Stats& stats, const ProgressFn& progress)
       : particles_(in.particles), p_(in.params), plan_(in.plan), volumes_(in.volumes), velocity_(in.velocity),
         stats_(stats), timer_(stats, progress) {}
 
-  void run(TriangleMesh& out) {
+  void timed(const char* name, const std::function<void()>& stage) override { timer_.run(name, stage); }
+
+  void prepare() override {
     check_coordinates_and_memory();
     upload();
-    particle_frames();
-    build_grid();
-    field_and_extract();
-    if (plan_.remove_voids)
-      stats_.removed_voids = timer_.run("voids", [&] { return remove_small_voids(mesh_, plan_.void_volume); });
-    if (plan_.remove_blobs)
-      stats_.removed_blobs = timer_.run("blobs", [&] {
-        return remove_unsupported_blobs(mesh_, grid_, plan_.void_volume, plan_.blob_min_volume);
-      });
-    if (plan_.sweeps) timer_.run("reorder", [&] { reorder_vertices_spatially(mesh_, plan_.lattice.cell_size); });
-    adj_ = timer_.run("adjacency", [&] { return build_adjacency(mesh_); });
-    smooth();
-    if (plan_.erode)
-      stats_.flipped_triangles = timer_.run("erode", [&] { return erode(mesh_, adj_, plan_.erode_distance); });
-    transfer();
-    normals_ = timer_.run("normals", [&] { return vertex_normals(mesh_, adj_); });
-    download(out);
   }
+
+  void particles() override { particle_frames(); }
+  void grid() override { build_grid(); }
+  void field() override { compute_field(); }
+  void extract() override { extract_mesh(); }
+  void voids() override { stats_.removed_voids = remove_small_voids(mesh_, plan_.void_volume); }
+
+  void blobs() override {
+    stats_.removed_blobs = remove_unsupported_blobs(mesh_, grid_, plan_.void_volume, plan_.blob_min_volume);
+  }
+
+  void reorder() override { reorder_vertices_spatially(mesh_, plan_.lattice.cell_size); }
+
+  void adjacency() override {
+    adj_ = timer_.run("adjacency", [&] { return build_adjacency(mesh_); });
+  }
+
+  void erode() override { stats_.flipped_triangles = ::meniscus::cuda::erode(mesh_, adj_, plan_.erode_distance); }
+
+  void smooth() override { smooth_mesh(); }
+  void transfer() override { transfer_attributes(); }
+  void normals() override { normals_ = vertex_normals(mesh_, adj_); }
+
+  void finish(TriangleMesh& out) override { download(out); }
 
  private:
   /// The grid's coordinate range, checked on the host as the CPU grid does (the positions are read
@@ -144,42 +153,36 @@ class DevicePipeline {
   }
 
   /// Kernel centres: the particles, Laplacian-smoothed when asked (Yu & Turk §5), and the
-  /// anisotropic ellipsoids, both from a grid of the raw particles (as the CPU pipeline).
+  /// anisotropic ellipsoids, both from a grid of the raw particles (as the CPU's stages).
   void particle_frames() {
     const ParticlePass& pass = plan_.particles;
-    if (!pass.run) return;
     const uint32_t n = uint32_t(particles_.size());
-    timer_.run("particles", [&] {
-      const DeviceGrid raw =
-          ::meniscus::cuda::build_grid(points_, n, pass.raw_cell, grid_cell_of(lo_, pass.raw_cell), grid_cell_of(hi_, pass.raw_cell));
-      DeviceBuffer<Vec3f> centres;
-      ::meniscus::cuda::particle_frames(raw, pass.pca_radius, pass.constants, pass.smooth_radius, pass.lambda,
-                                        pass.lambda > 0 ? &centres : nullptr, pass.anisotropic ? &ellipsoids_ : nullptr,
-                                        pass.centre_reach);
-      if (pass.lambda > 0) {
-        points_ = std::move(centres);
-        point_bounds(points_, n, &lo_, &hi_);  // within the particles' bounds up to rounding
-      }
-    });
+    const DeviceGrid raw =
+        ::meniscus::cuda::build_grid(points_, n, pass.raw_cell, grid_cell_of(lo_, pass.raw_cell), grid_cell_of(hi_, pass.raw_cell));
+    DeviceBuffer<Vec3f> centres;
+    ::meniscus::cuda::particle_frames(raw, pass.pca_radius, pass.constants, pass.smooth_radius, pass.lambda,
+                                      pass.lambda > 0 ? &centres : nullptr, pass.anisotropic ? &ellipsoids_ : nullptr,
+                                      pass.centre_reach);
+    if (pass.lambda > 0) {
+      points_ = std::move(centres);
+      point_bounds(points_, n, &lo_, &hi_);  // within the particles' bounds up to rounding
+    }
   }
 
   void build_grid() {
     const float cell = plan_.grid_cell;
-    grid_ = timer_.run("grid", [&] {
-      DeviceGrid g = ::meniscus::cuda::build_grid(points_, uint32_t(particles_.size()), cell, grid_cell_of(lo_, cell),
-                                                  grid_cell_of(hi_, cell));
-      if (plan_.particles.anisotropic) ellipsoids_ = to_sorted_order(g, ellipsoids_);
-      if (plan_.ellipsoid_shells) {  // the constraint shells, which the field's inside includes too
-        shells_ = unit_volume_shells(ellipsoids_);
-        shell_axis_ = max_ellipsoid_axis(shells_, uint32_t(particles_.size()));
-      }
-      if (!volumes_.empty()) volumes_device_ = to_sorted_order(g, volumes_device_);
-      return g;
-    });
+    grid_ = ::meniscus::cuda::build_grid(points_, uint32_t(particles_.size()), cell, grid_cell_of(lo_, cell),
+                                         grid_cell_of(hi_, cell));
+    if (plan_.particles.anisotropic) ellipsoids_ = to_sorted_order(grid_, ellipsoids_);
+    if (plan_.ellipsoid_shells) {  // the constraint shells, which the field's inside includes too
+      shells_ = unit_volume_shells(ellipsoids_);
+      shell_axis_ = max_ellipsoid_axis(shells_, uint32_t(particles_.size()));
+    }
+    if (!volumes_.empty()) volumes_device_ = to_sorted_order(grid_, volumes_device_);
     points_ = {};
   }
 
-  void field_and_extract() {
+  void compute_field() {
     const double d = p_.spacing;
     KernelParticles k;
     k.method = plan_.field;
@@ -194,7 +197,7 @@ class DevicePipeline {
         plan_.particles.anisotropic ? max_ellipsoid_axis(ellipsoids_, uint32_t(particles_.size())) : 0.0f,
         plan_.ellipsoid_shells ? shell_reach(plan_.r_outer, shell_axis_) : 0.0f);
     const float band = plan_.kernel_field ? support + float(p_.voxel_size) : plan_.distance_band;
-    const DeviceField field = timer_.run("field", [&] {
+    field_ = [&] {
       std::size_t blocks = 0;
       DeviceBuffer<uint64_t> keys = band_blocks(grid_, plan_.lattice, band, &blocks);
       // Field values, masks, the marching counts of the blocks and their ghosts, the corners.
@@ -211,39 +214,38 @@ class DevicePipeline {
       const float iso = float(p_.iso);
       return kernel_field(grid_, plan_.lattice, k, support, iso, kernel_field_background(plan_.field, k.radius, iso),
                           std::move(keys), blocks);
-    });
-    stats_.field_blocks = field.blocks;
-    mesh_ = timer_.run("extract", [&] { return extract_surface(field, plan_.iso, plan_.extractor); });
+    }();
+    stats_.field_blocks = field_.blocks;
+  }
+
+  void extract_mesh() {
+    mesh_ = extract_surface(field_, plan_.iso, plan_.extractor);
+    field_ = DeviceField();
     stats_.dropped_triangles = 0;
   }
 
-  void smooth() {
-    timer_.run("smooth", [&] {
-      SmoothSettings s;
-      DeviceBuffer<float> weights;
-      if (plan_.velocity_weights && p_.velocity_reference > 0) {
-        const DeviceBuffer<float> v = transfer_attribute(velocity_device_, 3, grid_, mesh_, plan_.transfer_radius);
-        weights = velocity_weights(v, mesh_.vertex_count, float(p_.velocity_reference), float(p_.velocity_min_weight));
-        s.vertex_relax = weights.data();
-      }
-      if (plan_.ellipsoid_shells) {
-        s.shells = shells_.data();
-        s.max_axis = shell_axis_;
-      }
-      static_cast<SmoothSchedule&>(s) = plan_.schedule;
-      s.r_inner = plan_.r_inner;
-      s.r_outer = plan_.r_outer;
-      stats_.smoothing = smooth_surface(mesh_, adj_, grid_, s);
-    });
+  void smooth_mesh() {
+    SmoothSettings s;
+    DeviceBuffer<float> weights;
+    if (plan_.velocity_weights && p_.velocity_reference > 0) {
+      const DeviceBuffer<float> v = transfer_attribute(velocity_device_, 3, grid_, mesh_, plan_.transfer_radius);
+      weights = velocity_weights(v, mesh_.vertex_count, float(p_.velocity_reference), float(p_.velocity_min_weight));
+      s.vertex_relax = weights.data();
+    }
+    if (plan_.ellipsoid_shells) {
+      s.shells = shells_.data();
+      s.max_axis = shell_axis_;
+    }
+    static_cast<SmoothSchedule&>(s) = plan_.schedule;
+    s.r_inner = plan_.r_inner;
+    s.r_outer = plan_.r_outer;
+    stats_.smoothing = smooth_surface(mesh_, adj_, grid_, s);
   }
 
-  void transfer() {
-    if (plan_.transfer.empty()) return;
-    timer_.run("transfer", [&] {
-      for (std::size_t k = 0; k < plan_.transfer.size(); ++k)
-        transferred_.push_back(transfer_attribute(attributes_[k], particles_.find(plan_.transfer[k])->components, grid_,
-                                                  mesh_, plan_.transfer_radius));
-    });
+  void transfer_attributes() {
+    for (std::size_t k = 0; k < plan_.transfer.size(); ++k)
+      transferred_.push_back(transfer_attribute(attributes_[k], particles_.find(plan_.transfer[k])->components, grid_,
+                                                mesh_, plan_.transfer_radius));
   }
 
   void download(TriangleMesh& out) {
@@ -281,6 +283,7 @@ class DevicePipeline {
   DeviceBuffer<Ellipsoid> shells_;      // the constraint shells, the grid's order
   float shell_axis_ = 0;                // their longest axis
   DeviceGrid grid_;
+  DeviceField field_;
   DeviceMesh mesh_;
   DeviceAdjacency adj_;
   DeviceBuffer<Vec3f> normals_;
@@ -288,9 +291,9 @@ class DevicePipeline {
 
 }  // namespace
 
-void reconstruct(const PipelineInput& in, Stats& stats, TriangleMesh& mesh, const ProgressFn& progress) {
+std::unique_ptr<StageBackend> make_device_stages(const PipelineInput& in, Stats& stats, const ProgressFn& progress) {
   MENISCUS_CUDA_CHECK(cudaSetDevice(0));
-  DevicePipeline(in, stats, progress).run(mesh);
+  return std::make_unique<DeviceStages>(in, stats, progress);
 }
 
 }  // namespace meniscus::cuda

@@ -1,31 +1,15 @@
-// meniscus — the CUDA backend's pipeline (docs/gpu.md: every stage on the device): one upload of
-// the particles, hash grid → sparse distance field → extraction → weld → void removal →
-// constrained smoothing → erosion → attribute transfer → normals, one download of the mesh; with
-// the field methods of issue #7 (kernel fields, particle smoothing, anisotropic kernels and
-// ellipsoid constraints, velocity weighting) as on the CPU.
-// The per-element math is the CPU's (*_impl.hpp headers with MENISCUS_HD), in the same order,
-// so the two backends agree (docs/gpu.md).
+// meniscus — the CUDA backend's stages (docs/gpu.md): one upload of the particles, every stage of the
+// plan on the device — hash grid, field (distance or kernel, with particle smoothing and
+// anisotropic kernels), extraction and weld, void and blob removal, adjacency, constrained
+// smoothing, erosion, attribute transfer, normals — and one download of the mesh. The driver
+// (pipeline/driver.cpp) runs them in the plan's order through make_device_stages
+// (pipeline/stages.hpp), the same order as the CPU's; the per-element math is the CPU's
+// (*_impl.hpp headers with MENISCUS_HD), in the same order, so the two backends agree.
+//
+// Stage times are device times (CUDA events); "upload", "adjacency" and "download" are stages of
+// their own. A job that would not fit in device memory is refused (ResourceError) before the large
+// allocations, a failed CUDA call is a CudaError (a ResourceError); device memory is released on
+// every path.
 #pragma once
 
-#include "meniscus/mesh.hpp"
-#include "meniscus/params.hpp"
-#include "meniscus/particles.hpp"
-#include "meniscus/reconstruct.hpp"
-#include "stage_plan.hpp"
-
-#include <vector>
-
-namespace meniscus::cuda {
-
-/// Runs the stages of `in.plan` (the CPU pipeline's plan) on CUDA device 0 with the resolved
-/// parameters `in.params` (Params after resolve_params). Appends the stage times (device time of each stage,
-/// measured with CUDA events; "upload" and "download" are stages of their own) and the counts
-/// to `stats`, and fills `mesh`. Throws ResourceError when the job would not fit in device
-/// memory (checked before the large allocations), CudaError (a ResourceError) when a CUDA call
-/// fails, InvalidParameter like the CPU stages. Device memory is released on every path.
-/// `in.volumes`: the SPH volumes m/ρ per original particle for --field sph|anisotropic;
-/// `in.velocity`: the particles' velocity attribute for --velocity-weighted (with
-/// velocity_reference resolved).
-void reconstruct(const PipelineInput& in, Stats& stats, TriangleMesh& mesh, const ProgressFn& progress);
-
-}  // namespace meniscus::cuda
+#include "pipeline/stages.hpp"

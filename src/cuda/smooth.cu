@@ -203,9 +203,9 @@ DeviceAdjacency build_adjacency(const DeviceMesh& mesh) {
   return adj;
 }
 
-SmoothReport smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGrid& grid,
+SmoothingStats smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGrid& grid,
                             const SmoothSettings& o) {
-  SmoothReport report;
+  SmoothingStats report;
   const uint64_t nv = mesh.vertex_count;
   if (nv == 0 || o.steps_a + o.steps_b + o.steps_free == 0) return report;
   Constraint g;

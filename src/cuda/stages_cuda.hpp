@@ -180,7 +180,7 @@ struct SmoothSettings : SmoothSchedule {
   const float* vertex_relax = nullptr;
 };
 /// smooth_surface() on the device (constrained against `grid`).
-SmoothReport smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGrid& grid, const SmoothSettings& s);
+SmoothingStats smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGrid& grid, const SmoothSettings& s);
 
 /// erode() on the device; returns the flipped triangle count.
 std::size_t erode(DeviceMesh& mesh, const DeviceAdjacency& adj, float distance);

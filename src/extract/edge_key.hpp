@@ -67,4 +67,10 @@ MENISCUS_HD inline float edge_parameter(float v0, float v1, float iso, float cla
   return t;
 }
 
+/// The vertex where {φ = iso} crosses the edge from p0 (value v0) to p1 (value v1), at the clamped
+/// parameter (edge_parameter): every weld, on either backend, places its vertices with it.
+MENISCUS_HD inline Vec3f edge_vertex(Vec3f p0, Vec3f p1, float v0, float v1, float iso, float clamp) {
+  return p0 + (p1 - p0) * edge_parameter(v0, v1, iso, clamp);
+}
+
 }  // namespace meniscus

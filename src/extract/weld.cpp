@@ -182,9 +182,8 @@ void check_vertex_count(std::size_t vertices) {
 
 /// Vertex positions, one per distinct dense key: where {φ = iso} crosses the key's edge. The field
 /// values are read kAhead vertices after their addresses are found and prefetched: their loads
-/// were this loop's main stall (a quarter of its samples on one instruction), the rows of vertices
-/// crossing a block at one row of its samples each (splash 1M, 4 runs each on a noisy machine:
-/// 0.18-0.25 s, mean 0.22 -> 0.17-0.20 s, mean 0.19).
+/// were this loop's main stall, the rows of vertices crossing a block at one row of its samples
+/// each.
 void compute_vertices(const std::vector<uint64_t>& vertex_keys, const DenseEdgeKeys& dense, const SparseField& field,
                       float iso, TriangleMesh& mesh) {
   resize_huge(mesh.vertices, vertex_keys.size());
@@ -203,8 +202,7 @@ void compute_vertices(const std::vector<uint64_t>& vertex_keys, const DenseEdgeK
                       for (std::size_t v = r.begin(); v != r.end(); ++v) {
                         const EdgeSamples e = ahead[v % kAhead];
                         if (v + kAhead < r.end()) locate(v + kAhead);
-                        const float t = edge_parameter(*e.v0, *e.v1, iso, kEdgeClamp);
-                        mesh.vertices[v] = e.p0 + (e.p1 - e.p0) * t;
+                        mesh.vertices[v] = edge_vertex(e.p0, e.p1, *e.v0, *e.v1, iso, kEdgeClamp);
                       }
                     });
 }
@@ -280,8 +278,7 @@ void weld_packed(std::vector<uint64_t>& corner_keys, const DenseEdgeKeys& dense,
 /// known), writes its triangles' corners and the positions of the vertices its cells own. Same
 /// mesh as sorting all the corners' keys (weld_packed; tested), without the sort, its scratch
 /// copy, the packed keys or the per-vertex key array, and the positions are computed where the
-/// block's field values are at hand: splash 1M's weld 0.61-0.68 -> 0.30-0.45 s (0.10-0.25 of it
-/// faulting in the mesh's arrays), its extraction's peak 1003 -> 949 MB.
+/// block's field values are at hand: about half the time and a lower peak than the sort.
 void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, ExtractResult& result) {
   TriangleMesh& mesh = result.mesh;
   const std::size_t blocks = m.origins.size();
@@ -291,8 +288,7 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
 
   // Each row's count of crossing edges, then (in place) its first vertex number; and each cell's
   // count of the crossing edges before it in its row (at most 3 · 54 on the A15 lattice, 7 · 7 on
-  // the cubic one: a byte), so that numbering an edge takes one popcount, not one per cell before it
-  // (splash 1M extract, 6 alternating runs each: mean 0.736 -> 0.701 s, for 6 MB).
+  // the cubic one: a byte), so that numbering an edge takes one popcount, not one per cell before it.
   const std::size_t cells = rows * std::size_t(n);
   std::vector<uint32_t> row_start(blocks * rows, 0);
   std::vector<uint8_t> before_in_row;
@@ -426,9 +422,8 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
                 for (uint64_t bits = m.crossings(b, (std::size_t(z) * n + y) * n + x); bits != 0; bits &= bits - 1) {
                   const LatticeEdge& e = m.edge_types[std::countr_zero(bits)];
                   const Vec3i c1{c0.x + e.dx, c0.y + e.dy, c0.z + e.dz};
-                  const Vec3f p0 = lattice.sample_position(c0, e.s0), p1 = lattice.sample_position(c1, e.s1);
-                  const float t = edge_parameter(value(c0, e.s0), value(c1, e.s1), iso, kEdgeClamp);
-                  mesh.vertices[v++] = p0 + (p1 - p0) * t;
+                  mesh.vertices[v++] = edge_vertex(lattice.sample_position(c0, e.s0), lattice.sample_position(c1, e.s1),
+                                                   value(c0, e.s0), value(c1, e.s1), iso, kEdgeClamp);
                 }
               }
             }

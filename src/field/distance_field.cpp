@@ -31,7 +31,7 @@ BlockBox band_block_box(Vec3i cell, float cell_size, float band, float block_siz
 /// band_blocks over a byte per block of the blocks' box, where that box is small (a frame's
 /// fluid fills much of its box): each hash cell marks its blocks, then one scan in (z, y, x)
 /// order lists the marked ones — already sorted, no key list of every cell's blocks to sort and
-/// deduplicate (splash 1M: the field stage 0.50 -> 0.46 s). Returns false, doing nothing, where
+/// deduplicate. Returns false, doing nothing, where
 /// the box is too large for the map (particles in far-apart clusters).
 bool band_blocks_dense(const HashGrid& grid, float band, float block_size, std::vector<uint64_t>& keys) {
   const auto cells = grid.cell_keys();

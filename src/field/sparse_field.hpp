@@ -13,6 +13,12 @@
 
 namespace meniscus {
 
+/// Where a lattice sample lies: (cell + offset) · cell_size, the world origin at 0 (both backends:
+/// SampleLattice::sample_position, and the device with the offsets passed by value).
+MENISCUS_HD inline Vec3f lattice_point(Vec3i cell, Vec3f offset, float cell_size) {
+  return Vec3f{float(cell.x) + offset.x, float(cell.y) + offset.y, float(cell.z) + offset.z} * cell_size;
+}
+
 /// Sample positions: sample s of cell c is at (c + offset(s)) · cell_size (world origin at 0).
 struct SampleLattice {
   enum class Kind { cubic, a15 };
@@ -23,10 +29,7 @@ struct SampleLattice {
   int block_cells() const { return 1 << block_shift(); }           ///< cells per block edge
   int block_shift() const { return kind == Kind::cubic ? 3 : 2; }  ///< log2 of block_cells()
   Vec3f sample_offset(int s) const;                                 ///< in units of cell_size
-  Vec3f sample_position(Vec3i cell, int s) const {
-    const Vec3f o = sample_offset(s);
-    return Vec3f{float(cell.x) + o.x, float(cell.y) + o.y, float(cell.z) + o.z} * cell_size;
-  }
+  Vec3f sample_position(Vec3i cell, int s) const { return lattice_point(cell, sample_offset(s), cell_size); }
 };
 
 /// The A15 sub-cell sample offsets (marching-tiles.md), in units of the cell size.

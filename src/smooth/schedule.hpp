@@ -32,9 +32,6 @@ struct SmoothSchedule {
   float area_floor = 0;   ///< the least vertex area D_i (collapsed vertices): from h, not the mesh
 };
 
-/// What the B sweeps did, as both backends return it and the pipeline's Stats carry it.
-using SmoothReport = SmoothingStats;
-
 /// The spectral radius of the A sweeps' Jacobi iteration for which the Chebyshev weights are made.
 /// The distance fields (distance, zhu-bridson: unions of spheres, bumpy as extracted): 0.97, which
 /// flattens a jittered block's top face 20-25 % more than 20 over-relaxed Gauss–Seidel sweeps did,

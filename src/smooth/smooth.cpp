@@ -43,10 +43,10 @@ Vec3f neighbour_mean(const Adjacency& adj, const Neighbors& neighbors, std::span
 /// lists are freed once the operator is built); `triangles` may be empty when it has corner lists.
 /// `neighbors`: adj's neighbour lists as Adjacency::with_neighbors gives them.
 template <class Neighbors, class Project>
-SmoothReport smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triangles, Adjacency& adj,
+SmoothingStats smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triangles, Adjacency& adj,
                          const Neighbors& neighbors, bool constrained_any, Project&& project_constraint,
                          const SmoothOptions& o, const std::function<void(double)>& progress) {
-  SmoothReport report;
+  SmoothingStats report;
   const std::size_t nv = x.size();
   if (nv == 0 || o.steps_a + o.steps_b + o.steps_free == 0) return report;  // no sweep: no set-up either
   const bool weighted = o.vertex_relax.size() == nv;
@@ -170,11 +170,11 @@ class TrianglesPackedAway {
 /// are not read during the sweeps: they wait packed (about 7 bytes a vertex instead of 24). Only a
 /// mesh with a row too long for the corner lists keeps its triangles.
 template <class Cache, class Constraint>
-SmoothReport smooth_cached(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, const Constraint* constraint,
+SmoothingStats smooth_cached(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, const Constraint* constraint,
                            const SmoothOptions& o, const std::function<void(double)>& progress) {
   if (x.empty() || o.steps_a + o.steps_b + o.steps_free == 0) return {};
   TrianglesPackedAway packed(triangles);
-  SmoothReport report;
+  SmoothingStats report;
   {
     Adjacency adj = build_adjacency(x.size(), triangles);
     // With corner lists, the sweeps read the rows only through them and the row functions: 2 bytes
@@ -264,7 +264,7 @@ ComponentBatches component_batches(std::size_t nv, std::span<const Triangle> tri
 /// batch numbers its vertices in the mesh's order: the positions are those of one call on the
 /// whole mesh, bit for bit.
 template <class Cache, class Constraint>
-SmoothReport smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, const Constraint* constraint,
+SmoothingStats smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, const Constraint* constraint,
                             const SmoothOptions& o, const std::function<void(double)>& progress) {
   constexpr std::size_t kAutoBatches = 8;
   const std::size_t nv = x.size();
@@ -272,7 +272,7 @@ SmoothReport smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& triang
   if (nv == 0 || o.steps_a + o.steps_b + o.steps_free == 0) return {};
   const auto start = std::chrono::steady_clock::now();
   auto whole = [&] {
-    SmoothReport r = smooth_cached<Cache>(x, triangles, constraint, o, progress);
+    SmoothingStats r = smooth_cached<Cache>(x, triangles, constraint, o, progress);
     r.batches = 1;
     r.setup_seconds = std::max(seconds_since(start) - r.a_sweeps_seconds - r.b_sweeps_seconds, 0.0);
     return r;
@@ -306,7 +306,7 @@ SmoothReport smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& triang
     });
     block_batches[k] = {lo, hi};
   });
-  SmoothReport total;
+  SmoothingStats total;
   total.batches = batches.count;
   total.relax_b_min = std::numeric_limits<double>::infinity();
   std::vector<uint32_t> local;  // a vertex's index in its batch
@@ -332,7 +332,7 @@ SmoothReport smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& triang
     const std::function<void(double)> pb = [&](double f) {
       if (progress) progress((double(done) + f * double(vertices.size())) / double(nv));
     };
-    const SmoothReport r = smooth_cached<Cache>(xb, tb, constraint, ob, pb);
+    const SmoothingStats r = smooth_cached<Cache>(xb, tb, constraint, ob, pb);
     parallel_for_index(vertices.size(), 4096, [&](std::size_t k) { x[vertices[k]] = xb[k]; });
     done += vertices.size();
     total.energy_start += r.energy_start;
@@ -351,12 +351,12 @@ SmoothReport smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& triang
 
 }  // namespace
 
-SmoothReport smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, const ShellConstraint* constraint,
+SmoothingStats smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, const ShellConstraint* constraint,
                             const SmoothOptions& o, const std::function<void(double)>& progress) {
   return smooth_batched<NeighbourCache>(x, triangles, constraint, o, progress);
 }
 
-SmoothReport smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles,
+SmoothingStats smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles,
                             const EllipsoidConstraint* constraint, const SmoothOptions& o,
                             const std::function<void(double)>& progress) {
   return smooth_batched<EllipsoidCache>(x, triangles, constraint, o, progress);

@@ -36,18 +36,18 @@ struct SmoothOptions : SmoothSchedule {
 /// smoothed on its own copy of its vertices and triangles, or, as one group, on `x` and
 /// `triangles` themselves. Either way the triangles are held packed meanwhile (the vector is empty
 /// during the call; a whole-mesh group with a vertex of over kMaxCornerRow neighbours keeps them).
-SmoothReport smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles,
+SmoothingStats smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles,
                             const ShellConstraint* constraint, const SmoothOptions& options,
                             const std::function<void(double)>& progress = {});
 
 /// No constraint at all.
-inline SmoothReport smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, std::nullptr_t,
+inline SmoothingStats smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles, std::nullptr_t,
                                    const SmoothOptions& options, const std::function<void(double)>& progress = {}) {
   return smooth_surface(x, triangles, static_cast<const ShellConstraint*>(nullptr), options, progress);
 }
 
 /// The same schedule with ellipsoid constraints (anisotropic kernels); `constraint` may be null.
-SmoothReport smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles,
+SmoothingStats smooth_surface(std::vector<Vec3f>& x, std::vector<Triangle>& triangles,
                             const EllipsoidConstraint* constraint, const SmoothOptions& options,
                             const std::function<void(double)>& progress = {});
 

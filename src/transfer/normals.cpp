@@ -42,10 +42,9 @@ std::vector<Vec3f> vertex_normals(std::span<const Vec3f> x, std::span<const Tria
   // waves of chunks far enough apart (disjoint_stride) that no two of a wave share a vertex: a
   // wave runs in parallel without atomics, and every vertex takes its terms in the same order
   // whatever the threads (chunk order within a wave, wave order across). Cheaper than building
-  // the vertex → triangle incidence for a gather. A mesh in spatial order has a short stride:
-  // splash 1M's extracted mesh (the extraction's blocks over its row-ordered vertices) 27 of its
-  // 395 chunks, the scatter 0.11 s on one thread -> 0.07 s on two, the stage 0.155 -> 0.13 s
-  // with the pass that finds each chunk's vertex range; its Morton-ordered smoothed mesh 52 of 86.
+  // the vertex → triangle incidence for a gather. A mesh in spatial order has a short stride (the
+  // extracted mesh's blocks over its row-ordered vertices, or the smoothed mesh's Morton order),
+  // so the waves are wide.
   std::vector<Vec3f> n;
   assign_huge(n, x.size(), Vec3f{0, 0, 0});
   const std::size_t nt = triangles.size(), chunks = (nt + kNormalChunk - 1) / kNormalChunk;
@@ -65,11 +64,8 @@ std::vector<Vec3f> vertex_normals(std::span<const Vec3f> x, std::span<const Tria
   const std::size_t stride = disjoint_stride(lo, hi);
   // The corners of the triangle kAhead on are prefetched: the extraction's triangles come block
   // by block while its vertices are in row order, so a block's corners are spread over a dozen
-  // rows of the arrays (splash 1M: 0.25-0.27 -> 0.16-0.18 s; 16 ahead 0.20 s, 32 ahead 0.17 s).
-  // The triangles themselves stream in with software prefetch (common/prefetch.hpp), as in the
-  // range pass above and the normalisation below: on the Intel host of the benchmarks the
-  // stage took 0.20 -> 0.115 s on splash 1M (ranges 0.078 -> 0.021 s, scatter 0.063 -> 0.054 s,
-  // normalisation 0.037 -> 0.015 s).
+  // rows of the arrays. The triangles themselves stream in with software prefetch
+  // (common/prefetch.hpp), as in the range pass above and the normalisation below.
   constexpr std::size_t kAhead = 64;
   const auto scatter = [&](std::size_t c) {
     const std::size_t end = std::min(nt, (c + 1) * kNormalChunk);

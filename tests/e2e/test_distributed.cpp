@@ -16,7 +16,7 @@
 #include "meniscus/io.hpp"
 #include "meniscus/quality.hpp"
 #include "meniscus/reconstruct.hpp"
-#include "stage_plan.hpp"
+#include "pipeline/stage_plan.hpp"
 #include "support/test_support.hpp"
 
 namespace meniscus {

@@ -52,7 +52,7 @@ TEST(SmoothSchedule, BStepsWithoutAStepsDoNotDiverge) {
     o.steps_b = 30;
     o.steps_free = 5;
     o.solver = solver;
-    const SmoothReport r = smooth_surface(x, raw.mesh.triangles, &c, o);
+    const SmoothingStats r = smooth_surface(x, raw.mesh.triangles, &c, o);
     ASSERT_TRUE(all_finite(x)) << to_string(solver);
     EXPECT_LT(r.energy_final, r.energy_start) << to_string(solver);
     EXPECT_EQ(r.a_sweeps_seconds, 0.0) << "no A sweep ran";
@@ -76,7 +76,7 @@ TEST(SmoothSchedule, FreeSweepsAtFullDampingDescend) {
     o.steps_b = 0;
     o.steps_free = sweeps;
     o.relax_b = 1.0f;
-    const SmoothReport r = smooth_surface(x, raw.mesh.triangles, nullptr, o);
+    const SmoothingStats r = smooth_surface(x, raw.mesh.triangles, nullptr, o);
     ASSERT_TRUE(all_finite(x));
     EXPECT_LT(r.energy_final, r.energy_start) << sweeps;
     EXPECT_EQ(r.damped_vertices, x.size()) << "the bound is below 1 everywhere (about 0.5 on a regular mesh)";
@@ -216,7 +216,7 @@ TEST(SmoothSchedule, AMeshWithoutCornerListsIsSmoothedAndKeepsItsTriangles) {
   o.steps_free = 1;
   std::vector<Vec3f> x = cone.vertices;
   std::vector<Triangle> t = cone.triangles;
-  const SmoothReport r = smooth_surface(x, t, nullptr, o);
+  const SmoothingStats r = smooth_surface(x, t, nullptr, o);
   EXPECT_TRUE(t == cone.triangles);
   ASSERT_TRUE(all_finite(x));
   EXPECT_LT(r.energy_final, r.energy_start);
@@ -285,7 +285,7 @@ TEST(SmoothSchedule, BatchesOfWholeComponentsGiveTheWholeMeshsVertices) {
     if (weighted) o.vertex_relax = damping;
     std::vector<Vec3f> x[2] = {raw.mesh.vertices, raw.mesh.vertices};
     std::vector<Triangle> t[2] = {raw.mesh.triangles, raw.mesh.triangles};
-    SmoothReport r[2];
+    SmoothingStats r[2];
     for (int m = 0; m < 2; ++m) {
       o.batch_vertices = m == 0 ? SIZE_MAX : nv / 20;
       r[m] = smooth_surface(x[m], t[m], &c, o);
@@ -329,7 +329,7 @@ TEST(SmoothSchedule, AutomaticBatchesOnlyWhereNoComponentDominates) {
     std::vector<Vec3f> x = raw->mesh.vertices;
     std::vector<Triangle> t = raw->mesh.triangles;
     o.batch_vertices = 0;
-    const SmoothReport automatic = smooth_surface(x, t, &c, o);
+    const SmoothingStats automatic = smooth_surface(x, t, &c, o);
     if (raw == &pool) {
       EXPECT_EQ(automatic.batches, 1u) << "one component of over 3/4: the whole mesh at once";
       x = raw->mesh.vertices;

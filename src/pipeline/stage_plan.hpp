@@ -1,9 +1,11 @@
 // meniscus — which stages a reconstruction runs, with which options (docs/method.md): one description,
-// made once from the resolved parameters, that both pipelines follow — the CPU's (pipeline.cpp)
-// and the CUDA backend's (cuda/pipeline_cuda.cpp). A stage's own arithmetic lives in the stage;
-// what runs, in which order and with which values lives here.
+// made once from the resolved parameters, that the driver (pipeline/driver.cpp) runs in its one
+// order on either backend — the CPU's stages (pipeline/cpu_stages.cpp) or the device's
+// (cuda/pipeline_cuda.cpp) — then the post-processing of the finished mesh on the host. A stage's
+// own arithmetic lives in the stage; what runs and with which values lives here.
 #pragma once
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -46,17 +48,15 @@ struct StagePlan {
   float erode_distance = 0;
   std::vector<std::string> transfer;
   float transfer_radius = 0;
-};
-
-/// What a pipeline of either backend works from: the particles, the resolved parameters, their
-/// plan, the SPH volumes per original particle (empty: uniform d³) and the particles' velocity
-/// attribute (null without one).
-struct PipelineInput {
-  const ParticleSet& particles;
-  const Params& params;
-  const StagePlan& plan;
-  const std::vector<float>& volumes;
-  const Attribute* velocity;
+  /// The finished mesh's post-processing, on the host whichever backend made it: `strays`
+  /// (components enclosing fewer than `min_particles` particles, each counted within
+  /// `stray_reach` of a vertex), then `clip` by `clip_box` (capped when `clip_cap`), then
+  /// `decimate` within `decimate_bound` (a length; 0: none).
+  int min_particles = 0;
+  float stray_reach = 0;
+  std::vector<double> clip_box;
+  bool clip_cap = false;
+  double decimate_bound = 0;
 };
 
 /// The plan of resolved parameters `p` (resolve_params).
@@ -85,6 +85,11 @@ inline StagePlan plan_stages(const Params& p) {
   s.erode_distance = float(p.erode);
   s.transfer = p.transfer;
   s.transfer_radius = float(p.transfer_radius);
+  s.min_particles = p.min_particles;
+  s.stray_reach = float(std::max(p.r_outer, 2 * p.spacing));
+  s.clip_box = p.clip_box;
+  s.clip_cap = p.clip_cap;
+  s.decimate_bound = p.decimate * p.spacing;
   return s;
 }
 

@@ -1,0 +1,217 @@
+// meniscus — the driver: reconstruct() checks the inputs, resolves the parameters, makes the plan
+// and runs its stages in one order (run_stages) on the CUDA device or the CPU, then the
+// post-processing of the finished mesh on the host — every stage timed the same way.
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <string>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "mesh/clip.hpp"
+#include "mesh/decimate.hpp"
+#include "mesh/voids.hpp"
+#include "meniscus/backend.hpp"
+#include "meniscus/errors.hpp"
+#include "meniscus/memory.hpp"
+#include "meniscus/messages.hpp"
+#include "meniscus/resources.hpp"
+#include "pipeline/internal.hpp"
+#include "pipeline/stages.hpp"
+
+namespace meniscus {
+
+const char* version() { return MENISCUS_VERSION; }
+
+void run_stages(const StagePlan& plan, StageBackend& b, TriangleMesh& mesh) {
+  b.prepare();
+  if (plan.particles.run) b.timed("particles", [&] { b.particles(); });
+  b.timed("grid", [&] { b.grid(); });
+  b.timed("field", [&] { b.field(); });
+  b.timed("extract", [&] { b.extract(); });
+  if (plan.remove_voids) b.timed("voids", [&] { b.voids(); });
+  if (plan.remove_blobs) b.timed("blobs", [&] { b.blobs(); });
+  if (plan.sweeps) b.timed("reorder", [&] { b.reorder(); });
+  b.adjacency();
+  b.timed("smooth", [&] { b.smooth(); });
+  if (plan.erode) b.timed("erode", [&] { b.erode(); });
+  if (!plan.transfer.empty()) b.timed("transfer", [&] { b.transfer(); });
+  b.timed("normals", [&] { b.normals(); });
+  b.finish(mesh);
+}
+
+std::size_t keep_particles_in_box(ParticleSet& particles, const std::vector<double>& box) {
+  if (box.empty()) return 0;
+  if (box.size() != 6) throw InvalidParameter(fmt::format("particle_box: {} numbers given, expected 6", box.size()));
+  return particles.keep_if([&](Vec3f x) {
+    return x.x >= box[0] && x.y >= box[1] && x.z >= box[2] && x.x <= box[3] && x.y <= box[4] && x.z <= box[5];
+  });
+}
+
+namespace {
+
+/// The input checks of reconstruct(); returns the particles' velocity attribute (or null).
+const Attribute* check_inputs(const ParticleSet& particles, const Params& params) {
+  check_particles(particles);
+  if (particles.size() == 0) throw InputError("no particles to surface");
+  for (const std::string& name : params.transfer)
+    if (!particles.find(name)) {
+      std::string available;
+      for (const Attribute& a : particles.attributes) available += (available.empty() ? "" : ", ") + a.name;
+      throw InvalidParameter(fmt::format("transfer: the particles have no attribute '{}' (they have: {})", name,
+                                         available.empty() ? "none" : available));
+    }
+  const Attribute* velocity = velocity_attribute(particles);
+  if (params.velocity_weighted && !velocity)
+    throw InvalidParameter("velocity_weighted: the particles have no velocity attribute (v, vel or velocity with 3 "
+                           "components); surface without --velocity-weighted");
+  return velocity;
+}
+
+/// Warnings about resolved parameters that will not give what the user expects.
+void warn_about(const Params& p, Stats& stats) {
+  const double d = p.spacing, h = p.voxel_size;
+  if (p.r_outer * p.r_outer <= d * d / 2 + p.r_inner * p.r_inner)
+    stats.warnings.push_back(fmt::format(
+        "r_outer² ≤ d²/2 + r_inner² (Williams' flatness condition): flat fluid will not come out flat "
+        "(r_outer {:g}, r_inner {:g}, spacing {:g})",
+        p.r_outer, p.r_inner, d));
+  if (p.erode > h / 2)
+    stats.warnings.push_back(
+        fmt::format("erode {:g} exceeds half a voxel ({:g}); large erosion can self-intersect", p.erode, h / 2));
+}
+
+/// The CUDA backend, when asked (refused without a device) or, for auto, when a real device is
+/// there (never the emulated one of a MENISCUS_CUDA_EMULATION build, unless a test asks for it).
+/// Returns whether it ran; a failure of auto's attempt leaves a warning and the CPU runs.
+bool run_on_device(const PipelineInput& in, Result& result, const ProgressFn& progress) {
+  Stats& stats = result.stats;
+  const Params& p = in.params;
+  if (p.backend == Backend::cpu) return false;
+  std::string why;
+  const std::vector<CudaDeviceInfo> devices = cuda_devices(&why);
+  const bool auto_takes_emulated = std::getenv("MENISCUS_EMULATED_DEVICE_FOR_AUTO") != nullptr;
+  const bool have_device =
+      p.backend == Backend::cuda
+          ? !devices.empty()
+          : std::any_of(devices.begin(), devices.end(),
+                        [&](const CudaDeviceInfo& dev) { return !dev.emulated || auto_takes_emulated; });
+  if (!devices.empty() && !have_device) why = "the CUDA device is emulated (a test build)";
+  if (p.backend == Backend::cuda && !have_device)
+    throw ResourceError(fmt::format("--backend cuda: no CUDA backend available ({}); use --backend cpu or auto", why));
+  // No device: auto runs on the CPU without a word each run (`meniscus info` says why there is none).
+  if (!have_device) return false;
+  const std::size_t stages_before = stats.stages.size();
+  try {
+    run_stages(in.plan, *cuda::make_device_stages(in, stats, progress), result.mesh);
+    stats.backend = "cuda";
+    return true;
+  } catch (const ResourceError& e) {
+    if (p.backend == Backend::cuda) throw;
+    stats.stages.resize(stages_before);
+    stats.device_calls.clear();
+    result.mesh = {};
+    stats.warnings.push_back(fmt::format("CUDA backend failed, running on the CPU instead: {}", e.what()));
+    return false;
+  }
+}
+
+/// The finished mesh's post-processing on the host, whichever backend made it: the strays, the
+/// clip (and its cap), then the simplification.
+void post_process(const StagePlan& plan, const ParticleSet& particles, Result& result, const ProgressFn& progress) {
+  TriangleMesh& mesh = result.mesh;
+  Stats& stats = result.stats;
+  StageTimer timer(stats, progress);
+  if (plan.min_particles > 0) {
+    stats.removed_strays = timer.run("strays", [&] {
+      return remove_components_enclosing_few(mesh, particles.positions, plan.stray_reach,
+                                             std::size_t(plan.min_particles));
+    });
+    if (mesh.triangles.empty() && stats.removed_strays > 0)
+      stats.warnings.push_back(fmt::format("{} dropped every piece of the surface ({} of them, each enclosing fewer "
+                                           "particles): the mesh is empty",
+                                           spelled_setting("min_particles", std::to_string(plan.min_particles)),
+                                           stats.removed_strays));
+  }
+  if (!plan.clip_box.empty()) {
+    const std::vector<double>& b = plan.clip_box;
+    const ClipBox box{float(b[0]), float(b[1]), float(b[2]), float(b[3]), float(b[4]), float(b[5])};
+    Vec3f lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+    for (const Vec3f& v : mesh.vertices) lo = min(lo, v), hi = max(hi, v);
+    const ClipOutcome clip = timer.run("clip", [&] { return clip_to_box(mesh, box, plan.clip_cap); });
+    stats.clipped_triangles = clip.removed_triangles;
+    stats.cut_triangles = clip.cut_triangles;
+    stats.cap_triangles = clip.cap_triangles;
+    stats.cap_open_edges = clip.cap_defects;
+    if (clip.cap_defects > 0)
+      stats.warnings.push_back(fmt::format(
+          "{}: {} edges left open where the cut's curves cross on a box face (the surface intersects itself "
+          "there); the mesh is not watertight",
+          spelled("clip_cap"), clip.cap_defects));
+    if (mesh.triangles.empty() && clip.removed_triangles > 0)
+      stats.warnings.push_back(fmt::format(
+          "{} holds none of the surface: the mesh is empty (the surface spans {:g},{:g},{:g} to {:g},{:g},{:g})",
+          spelled_setting("clip_box", fmt::format("{:g}", fmt::join(b, ","))), lo.x, lo.y, lo.z, hi.x, hi.y, hi.z));
+  }
+  if (plan.decimate_bound > 0) {
+    const DecimateOutcome d = timer.run("decimate", [&] { return decimate(mesh, plan.decimate_bound); });
+    stats.decimated_triangles = d.triangles_before - d.triangles_after;
+    stats.decimate_error = d.max_error;
+    stats.decimate_kept_whole = d.kept_whole;
+    stats.decimate_rounds = d.rounds;
+  }
+}
+
+}  // namespace
+
+Result reconstruct(const ParticleSet& all_particles, const Params& params, const ProgressFn& progress) {
+  // --particle-box: the particles outside are ignored before anything else.
+  ParticleSet boxed;
+  std::size_t outside = 0;
+  if (!params.particle_box.empty()) {
+    params.validate();
+    boxed = all_particles;
+    outside = keep_particles_in_box(boxed, params.particle_box);
+    if (boxed.size() == 0 && all_particles.size() > 0)
+      throw InvalidParameter(fmt::format("particle_box: all {} particles are outside the box", all_particles.size()));
+  }
+  const ParticleSet& particles = params.particle_box.empty() ? all_particles : boxed;
+  Result result;
+  Stats& stats = result.stats;
+  stats.particles_outside_box = outside;
+  const Attribute* velocity = check_inputs(particles, params);
+  const Grant cpus = params.threads > 0 ? Grant{double(params.threads), "--threads"} : granted_threads();
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(cpus.amount));
+  Params given = params;
+  given.threads = int(cpus.amount);
+  stats.threads_from = cpus.source;
+  const Grant memory = memory_limit(given.max_memory_gb);
+  given.max_memory_gb = memory.amount / 1e9;
+  stats.max_memory_from = memory.source;
+  Params p = StageTimer(stats, progress).run("parameters", [&] { return resolve_params(particles, given); });
+  stats.spacing_estimated = params.spacing == 0;
+  stats.particles = particles.size();
+  stats.threads = p.threads;
+  warn_about(p, stats);
+  result.params = p;
+  // SPH volumes per original particle for the sph and anisotropic fields (empty: uniform d³).
+  const std::vector<float> volumes = p.field == FieldMethod::sph || p.field == FieldMethod::anisotropic
+                                         ? particle_volumes(particles, p.spacing, p.rest_density)
+                                         : std::vector<float>{};
+  const StagePlan plan = plan_stages(p);  // both backends run these stages, in run_stages' order
+  const PipelineInput in{particles, p, plan, volumes, velocity};
+  if (!run_on_device(in, result, progress)) {
+    stats.backend = "cpu";
+    run_stages(plan, *make_cpu_stages(in, stats, progress), result.mesh);
+  }
+  post_process(plan, particles, result, progress);
+  stats.vertices = result.mesh.vertices.size();
+  stats.triangles = result.mesh.triangles.size();
+  stats.peak_memory_bytes = peak_resident_bytes();
+  return result;
+}
+
+}  // namespace meniscus

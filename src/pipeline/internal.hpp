@@ -1,0 +1,101 @@
+// meniscus — what the pipeline's files share (src/pipeline/; not part of the public API).
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <initializer_list>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/clock.hpp"
+#include "grid/hash_grid.hpp"
+#include "meniscus/params.hpp"
+#include "meniscus/particles.hpp"
+#include "meniscus/reconstruct.hpp"
+
+namespace meniscus {
+
+struct SampleLattice;
+
+// --- resolve.cpp: the inputs and the frame-wide estimates ---------------------------------------
+
+/// The finest cell or voxel surfaced: single precision squares distances, and below this their
+/// squares come near the smallest normal float (1e-38).
+inline constexpr double kMinSpacing = 1e-12;
+
+/// Refuses (InputError) a cell of `cell` below kMinSpacing, and a particle farther from the
+/// origin than a grid axis of such cells holds (kMaxCoord), naming it: a stray far from the fluid.
+/// `first`: the index of positions[0] in the frame; `what`: the cells, for the message.
+void check_coordinates(std::span<const Vec3f> positions, std::size_t first, double cell, std::string_view what);
+
+/// Attribute lengths, and every coordinate finite (InputError naming the first that is not).
+void check_particles(const ParticleSet& particles);
+
+/// The particles' attribute with one of these names and this many components, or nullptr.
+const Attribute* find_attribute(const ParticleSet& particles, std::initializer_list<const char*> names, int components);
+const Attribute* density_attribute(const ParticleSet& particles);
+const Attribute* mass_attribute(const ParticleSet& particles);
+const Attribute* velocity_attribute(const ParticleSet& particles);
+
+/// The median of the particles' positive densities (0 when none is positive).
+double median_density(const Attribute& density);
+
+/// SPH volumes m_i/ρ_i per original particle (Müller et al. 2003): mass/density when the particles
+/// carry both, d³·ρ₀/ρ_i with a density only (uniform mass; ρ₀ = rest_density, resolved), empty
+/// (uniform d³) otherwise. Each volume is the particle's own: nothing frame-wide but ρ₀.
+std::vector<float> particle_volumes(const ParticleSet& particles, double d, double rho0);
+
+/// The velocity weighting's reference speed when not given: the particles' 95th-percentile speed.
+double velocity_reference(const Attribute& velocity);
+
+/// A per-particle array in the grid's sorted order.
+template <class T>
+std::vector<T> to_sorted_order(const HashGrid& grid, const std::vector<T>& original) {
+  std::vector<T> out(original.size());
+  const auto order = grid.order();
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = original[order[i]];
+  return out;
+}
+
+// --- budget.cpp: the memory a run may use --------------------------------------------------------
+
+/// Refuses, before allocating, a field that would not fit in `max_bytes`, and a run whose field,
+/// mesh and smoothing would not (`limit_from`: where the limit comes from, for the message).
+/// Returns the band's block keys (band_blocks).
+std::vector<uint64_t> checked_band_blocks(const HashGrid& grid, const SampleLattice& lattice, float band,
+                                          double max_bytes, const Params& p, const std::string& limit_from);
+
+// --- the host's stage timer (driver.cpp, cpu_stages.cpp) -------------------------------------------
+
+/// Times a stage on the host's steady clock, appends it to Stats::stages and reports its start and
+/// end to the progress callback.
+class StageTimer {
+ public:
+  StageTimer(Stats& stats, const ProgressFn& progress) : stats_(stats), progress_(progress) {}
+  template <class F>
+  auto run(const char* name, F&& f) {
+    if (progress_) progress_(name, 0.0);
+    const auto t0 = std::chrono::steady_clock::now();
+    if constexpr (std::is_void_v<decltype(f())>) {
+      f();
+      finish(name, t0);
+    } else {
+      auto result = f();
+      finish(name, t0);
+      return result;
+    }
+  }
+
+ private:
+  void finish(const char* name, std::chrono::steady_clock::time_point t0) {
+    const double s = seconds_since(t0);
+    stats_.stages.push_back({name, s});
+    if (progress_) progress_(name, 1.0);
+  }
+  Stats& stats_;
+  const ProgressFn& progress_;
+};
+
+}  // namespace meniscus

@@ -5,12 +5,15 @@
 // per-vertex formula is the CPU's (schedule.hpp, operators_impl.hpp, constraint_impl.hpp), in the
 // same order of float operations, so both backends give the same mesh.
 #include <algorithm>
+#include <optional>
 #include <vector>
 
+#include "cuda/for_each.hpp"
 #include "cuda/primitives.hpp"
 #include "cuda/stages_cuda.hpp"
 #include "smooth/constraint_impl.hpp"
 #include "smooth/operators_impl.hpp"
+#include "smooth/sweeps_impl.hpp"
 
 namespace meniscus::cuda {
 
@@ -117,64 +120,93 @@ struct TreeSum {
 
 // --- sweeps ---------------------------------------------------------------------------------------------
 
-/// The constraint of the sweeps: Williams' spherical shells, or with `shells` the ellipsoid
-/// shells of the anisotropic field (constraint_impl.hpp, as on the CPU); and the per-vertex
-/// factor on the damping (velocity weighting; 1 without).
-struct Constraint {
+/// The constraint of the sweeps: Williams' spherical shells, or with `shells` the ellipsoid shells
+/// of the anisotropic field (constraint_impl.hpp, as on the CPU).
+struct DeviceProjection {
   GridView grid;
   float r_inner = 0, r_outer = 0;
   const Ellipsoid* shells = nullptr;
   float max_axis = 1;
-  const float* vertex_relax = nullptr;
 
-  __device__ float factor(uint32_t i) const { return vertex_relax != nullptr ? vertex_relax[i] : 1.0f; }
-  /// x, moved from `from` (where the previous projection left the vertex) by the sweep.
-  __device__ Vec3f project(Vec3f x, Vec3f from) const {
-    return shells != nullptr ? project_vertex_in_metric(grid, shells, x, from, r_inner, r_outer, max_axis)
-                             : project_vertex_on(grid, x, r_inner, r_outer);
+  /// Vertex i, moved from `from` (where the previous projection left it) to `moved` by the sweep.
+  __device__ Vec3f operator()(uint32_t /*i*/, Vec3f moved, Vec3f from) const {
+    return shells != nullptr ? project_vertex_in_metric(grid, shells, moved, from, r_inner, r_outer, max_axis)
+                             : project_vertex_on(grid, moved, r_inner, r_outer);
   }
 };
 
-/// A sweep, Chebyshev-weighted: x⁽ˢ⁺¹⁾ into `other`, which holds x⁽ˢ⁻¹⁾ (only its own vertex reads it).
-__global__ void a_sweep_kernel(const uint32_t* offsets, const uint32_t* neighbors, uint64_t nv, const Vec3f* x,
-                               Vec3f* other, float relax, float weight, bool constrained, Constraint c) {
-  MENISCUS_GRID_STRIDE(k, nv) {
-    const uint32_t i = uint32_t(k);
-    const Vec3f y = a_sweep_position(x[i], neighbour_mean_row(offsets, neighbors, x, i), other[i], relax, c.factor(i),
-                                     weight);
-    other[i] = constrained ? c.project(y, x[i]) : y;
-  }
-}
+/// The sweeps of the schedule (run_schedule, smooth/schedule.hpp) on the device: the shared
+/// per-vertex work (smooth/sweeps_impl.hpp), a kernel each, nothing read back between sweeps.
+struct DeviceSweeps {
+  static constexpr bool kHostTimed = false;
+  using Rows = SweepRows<const uint32_t*>;
 
-/// Each vertex's B damping (b_stable_damping); the count of those below relax_b.
-__global__ void b_damping_kernel(const uint32_t* offsets, const uint32_t* neighbors, const float* w, const float* diag,
-                                 const float* area, uint64_t nv, float relax_b, float* omega,
-                                 unsigned long long* damped) {
-  MENISCUS_GRID_STRIDE(k, nv) {
-    const uint32_t i = uint32_t(k);
-    omega[i] = b_stable_damping(offsets, neighbors, w, diag, area, i, relax_b);
-    if (omega[i] < relax_b) atomicAdd(damped, 1ull);
-  }
-}
+  DeviceMesh& mesh;
+  const DeviceAdjacency& adj;
+  const SmoothSettings& o;
+  DeviceProjection project;
+  uint64_t nv = mesh.vertex_count;
+  DeviceBuffer<Vec3f> other{};
+  Operator op{};
+  DeviceBuffer<Vec3f> wx{};
+  DeviceBuffer<float> omega{};
+  DeviceBuffer<unsigned long long> damped{1};
+  std::optional<TreeSum> tree{};
 
-/// W x of the current iterate.
-__global__ void b_wx_kernel(const uint32_t* offsets, const uint32_t* neighbors, const float* w, const float* diag,
-                            const Vec3f* x, uint64_t nv, Vec3f* wx) {
-  MENISCUS_GRID_STRIDE(k, nv) { wx[k] = apply_w_row(offsets, neighbors, w, diag, x, uint32_t(k)); }
-}
-
-/// A B sweep: every vertex moves from the W x of its ring (which no move of the sweep changes).
-__global__ void b_sweep_kernel(const uint32_t* offsets, const uint32_t* neighbors, const float* w, const float* diag,
-                               const float* area, const Vec3f* wx, const float* omega, uint64_t nv, Vec3f* x,
-                               bool constrained, Constraint c) {
-  MENISCUS_GRID_STRIDE(k, nv) {
-    const uint32_t i = uint32_t(k);
-    float b_ii;
-    const Vec3f bx = bilaplacian_row_and_diagonal(offsets, neighbors, w, diag[i], area, wx, i, &b_ii);
-    const Vec3f moved = b_sweep_position(x[i], bx, b_ii, omega[i], c.factor(i));
-    x[i] = constrained ? c.project(moved, x[i]) : moved;
+  Rows rows() const {
+    return {adj.offsets.data(), adj.neighbors.data(), op.w.data(), op.diag.data(), op.area.data(), o.vertex_relax};
   }
-}
+  void swept() {}
+
+  void a_begin() { other.copy_from(mesh.vertices); }
+  void a_sweep(float weight) {
+    for_each_index(Device{}, nv, ASweep<const uint32_t*, DeviceProjection>{rows(), mesh.vertices.data(), other.data(),
+                                                                           o.relax_a, weight, true, project});
+    std::swap(mesh.vertices, other);
+  }
+  void a_end() { other = {}; }
+
+  void build_operator() {
+    const MeshRows mesh_rows{adj.offsets.data(), adj.neighbors.data(), adj.tri_offsets.data(), adj.tri_ids.data(),
+                             mesh.triangles.data()};
+    op.w.resize(adj.neighbors.size());  // cotan_row writes its row whole
+    op.diag.resize(nv);
+    op.area.resize(nv);
+    MENISCUS_LAUNCH(cotan_kernel, blocks_for(nv), 256)(mesh_rows, mesh.vertices.data(), nv, op.w.data(), op.diag.data(),
+                                                       op.area.data());
+    MENISCUS_CUDA_CHECK_LAUNCH();
+    MENISCUS_LAUNCH(area_floor_kernel, blocks_for(nv), 256)(op.area.data(), nv, o.area_floor);
+    MENISCUS_CUDA_CHECK_LAUNCH();
+    if (!tree) {
+      tree.emplace(nv);
+      wx.resize(nv);
+      omega.resize(nv);
+    }
+  }
+  void set_damping() {
+    damped.zero();
+    for_each_index(Device{}, nv, BDamping<const uint32_t*>{rows(), o.relax_b, omega.data(), damped.data()});
+  }
+  void update_wx() { for_each_index(Device{}, nv, ApplyW<const uint32_t*>{rows(), mesh.vertices.data(), wx.data()}); }
+  double energy() {  // xᵀBx from wx, in the CPU's tree (reported, it decides nothing)
+    MENISCUS_LAUNCH(leaf_energy_kernel, blocks_for(tree->count), 256)(wx.data(), op.area.data(), tree->leaves.data(),
+                                                                      tree->count, tree->sums.data());
+    MENISCUS_CUDA_CHECK_LAUNCH();
+    return tree->finish();
+  }
+  void b_sweep(bool constrained) {
+    for_each_index(Device{}, nv, BSweep<const uint32_t*, DeviceProjection>{rows(), wx.data(), omega.data(),
+                                                                           mesh.vertices.data(), constrained, project});
+  }
+  std::size_t damped_vertices() { return std::size_t(damped.get(0)); }
+  double least_damping() {
+    std::vector<float> w(nv);
+    omega.download(w.data(), nv);
+    float least = o.relax_b;
+    for (float v : w) least = v < least ? v : least;
+    return least;
+  }
+};
 
 }  // namespace
 
@@ -204,93 +236,10 @@ DeviceAdjacency build_adjacency(const DeviceMesh& mesh) {
 }
 
 SmoothingStats smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGrid& grid,
-                            const SmoothSettings& o) {
-  SmoothingStats report;
-  const uint64_t nv = mesh.vertex_count;
-  if (nv == 0 || o.steps_a + o.steps_b + o.steps_free == 0) return report;
-  Constraint g;
-  g.grid = grid.view();
-  g.r_inner = o.r_inner;
-  g.r_outer = o.r_outer;
-  g.shells = o.shells;
-  g.max_axis = o.max_axis;
-  g.vertex_relax = o.vertex_relax;
-  const uint32_t* off = adj.offsets.data();
-  const uint32_t* nb = adj.neighbors.data();
-
-  // --- A ---
-  if (o.steps_a > 0) {
-    DeviceBuffer<Vec3f> other;
-    other.copy_from(mesh.vertices);
-    float weight = 1.0f;
-    for (int s = 0; s < o.steps_a; ++s) {
-      weight = chebyshev_weight(s, o.steps_a, weight, o.solver, o.chebyshev_rho);
-      MENISCUS_LAUNCH(a_sweep_kernel, blocks_for(nv), 256)(off, nb, nv, mesh.vertices.data(), other.data(), o.relax_a,
-                                                           weight, true, g);
-      MENISCUS_CUDA_CHECK_LAUNCH();
-      std::swap(mesh.vertices, other);
-    }
-  }
-
-  // --- B ---
-  const int steps_b = o.steps_b + o.steps_free;
-  if (steps_b <= 0) return report;
-  TreeSum tree(nv);
-  Operator op;
-  const MeshRows rows{off, nb, adj.tri_offsets.data(), adj.tri_ids.data(), mesh.triangles.data()};
-  auto build = [&] {
-    op.w.resize(adj.neighbors.size());  // cotan_row writes its row whole
-    op.diag.resize(nv);
-    op.area.resize(nv);
-    MENISCUS_LAUNCH(cotan_kernel, blocks_for(nv), 256)(rows, mesh.vertices.data(), nv, op.w.data(), op.diag.data(),
-                                                       op.area.data());
-    MENISCUS_CUDA_CHECK_LAUNCH();
-    MENISCUS_LAUNCH(area_floor_kernel, blocks_for(nv), 256)(op.area.data(), nv, o.area_floor);
-    MENISCUS_CUDA_CHECK_LAUNCH();
-  };
-  DeviceBuffer<Vec3f> wx(nv);
-  DeviceBuffer<float> omega(nv);
-  DeviceBuffer<unsigned long long> damped(1);
-  auto set_damping = [&] {
-    damped.zero();
-    MENISCUS_LAUNCH(b_damping_kernel, blocks_for(nv), 256)(off, nb, op.w.data(), op.diag.data(), op.area.data(), nv,
-                                                           o.relax_b, omega.data(), damped.data());
-    MENISCUS_CUDA_CHECK_LAUNCH();
-  };
-  auto update_wx = [&] {
-    MENISCUS_LAUNCH(b_wx_kernel, blocks_for(nv), 256)(off, nb, op.w.data(), op.diag.data(), mesh.vertices.data(), nv,
-                                                      wx.data());
-    MENISCUS_CUDA_CHECK_LAUNCH();
-  };
-  auto energy = [&] {  // xᵀBx from wx, in the CPU's tree (reported, it decides nothing)
-    MENISCUS_LAUNCH(leaf_energy_kernel, blocks_for(tree.count), 256)(wx.data(), op.area.data(), tree.leaves.data(),
-                                                                     tree.count, tree.sums.data());
-    MENISCUS_CUDA_CHECK_LAUNCH();
-    return tree.finish();
-  };
-  build();
-  set_damping();
-  update_wx();
-  report.energy_start = energy();
-  for (int s = 0; s < steps_b; ++s) {
-    if (o.rebuild_b > 0 && s > 0 && s % o.rebuild_b == 0) {
-      build();
-      set_damping();
-      update_wx();
-    }
-    MENISCUS_LAUNCH(b_sweep_kernel, blocks_for(nv), 256)(off, nb, op.w.data(), op.diag.data(), op.area.data(), wx.data(),
-                                                         omega.data(), nv, mesh.vertices.data(), s < o.steps_b, g);
-    MENISCUS_CUDA_CHECK_LAUNCH();
-    update_wx();
-  }
-  report.energy_final = energy();
-  report.damped_vertices = std::size_t(damped.get(0));
-  std::vector<float> w(nv);
-  omega.download(w.data(), nv);
-  float least = o.relax_b;
-  for (float v : w) least = v < least ? v : least;
-  report.relax_b_min = least;
-  return report;
+                              const SmoothSettings& o) {
+  if (mesh.vertex_count == 0 || o.steps_a + o.steps_b + o.steps_free == 0) return {};
+  DeviceSweeps sweeps{mesh, adj, o, DeviceProjection{grid.view(), o.r_inner, o.r_outer, o.shells, o.max_axis}};
+  return run_schedule(o, sweeps);
 }
 
 }  // namespace meniscus::cuda

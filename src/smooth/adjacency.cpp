@@ -10,7 +10,7 @@
 #include <numeric>
 
 #include "common/huge_pages.hpp"
-#include "common/parallel_index.hpp"
+#include "common/for_each.hpp"
 
 namespace meniscus {
 
@@ -22,24 +22,24 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
   // The triangle lists: counted and filled in parallel through atomic cursors, then each list
   // sorted — ascending, as a serial fill in triangle order would leave it.
   resize_huge(adj.tri_offsets, nv + 1);
-  parallel_for_index(nv + 1, 65536, [&](std::size_t i) { adj.tri_offsets[i] = 0; });
-  parallel_for_index(triangles.size(), 16384, [&](std::size_t f) {
+  for_each_index(nv + 1, [&](std::size_t i) { adj.tri_offsets[i] = 0; }, 65536);
+  for_each_index(triangles.size(), [&](std::size_t f) {
     for (uint32_t v : triangles[f]) std::atomic_ref<uint32_t>(adj.tri_offsets[v + 1]).fetch_add(1, std::memory_order_relaxed);
-  });
+  }, 16384);
   for (std::size_t i = 0; i < nv; ++i) adj.tri_offsets[i + 1] += adj.tri_offsets[i];
   resize_huge(adj.tri_ids, adj.tri_offsets[nv]);
   {
     UninitVector<uint32_t> fill;
     resize_huge(fill, nv);
-    parallel_for_index(nv, 65536, [&](std::size_t i) { fill[i] = adj.tri_offsets[i]; });
-    parallel_for_index(triangles.size(), 16384, [&](std::size_t f) {
+    for_each_index(nv, [&](std::size_t i) { fill[i] = adj.tri_offsets[i]; }, 65536);
+    for_each_index(triangles.size(), [&](std::size_t f) {
       for (uint32_t v : triangles[f])
         adj.tri_ids[std::atomic_ref<uint32_t>(fill[v]).fetch_add(1, std::memory_order_relaxed)] = uint32_t(f);
-    });
+    }, 16384);
   }
-  parallel_for_index(nv, 4096, [&](std::size_t i) {
+  for_each_index(nv, [&](std::size_t i) {
     std::sort(adj.tri_ids.begin() + adj.tri_offsets[i], adj.tri_ids.begin() + adj.tri_offsets[i + 1]);
-  });
+  }, 4096);
 
   // Each vertex's neighbours come from its incident triangles: collect, sort, unique. A vertex
   // whose triangles close a fan (every vertex of a closed manifold mesh, such as the extraction's)
@@ -78,7 +78,7 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
     return fits.load();
   };
   resize_huge(adj.offsets, nv + 1);
-  parallel_for_index(nv + 1, 65536, [&](std::size_t i) { adj.offsets[i] = adj.tri_offsets[i]; });
+  for_each_index(nv + 1, [&](std::size_t i) { adj.offsets[i] = adj.tri_offsets[i]; }, 65536);
   resize_huge(adj.neighbors, adj.offsets[nv]);
   if (write_rows(adj.offsets)) return adj;
 
@@ -100,12 +100,12 @@ void fill_corner_lists(Adjacency& adj, const Neighbors& neighbors, std::span<con
   const std::size_t nv = adj.vertex_count();
   resize_huge(adj.corner_offsets, nv + 1);
   adj.corner_offsets[0] = 0;
-  parallel_for_index(nv, 65536, [&](std::size_t i) {
+  for_each_index(nv, [&](std::size_t i) {
     adj.corner_offsets[i + 1] = adj.tri_offsets[i + 1] - adj.tri_offsets[i];
-  });
+  }, 65536);
   std::inclusive_scan(adj.corner_offsets.begin(), adj.corner_offsets.end(), adj.corner_offsets.begin());
   resize_huge(adj.corners, adj.corner_offsets[nv]);
-  parallel_for_index(nv, 4096, [&](std::size_t i) {
+  for_each_index(nv, [&](std::size_t i) {
     const uint32_t r = uint32_t(i);
     const uint32_t row_begin = adj.offsets[i], row_end = adj.offsets[i + 1];
     // The slot of v in row i, as cotan_row finds it; kNoSlot (i itself, in a degenerate triangle)
@@ -120,16 +120,16 @@ void fill_corner_lists(Adjacency& adj, const Neighbors& neighbors, std::span<con
       corners_after(triangles[adj.tri_ids[k]].data(), r, &j, &l);
       *out++ = {slot_of(j), slot_of(l)};
     }
-  });
+  }, 4096);
 }
 
 }  // namespace
 
 bool corner_lists_fit(const Adjacency& adj) {
   std::atomic<bool> fits{true};
-  parallel_for_index(adj.vertex_count(), 65536, [&](std::size_t i) {
+  for_each_index(adj.vertex_count(), [&](std::size_t i) {
     if (adj.offsets[i + 1] - adj.offsets[i] > kMaxCornerRow) fits.store(false, std::memory_order_relaxed);
-  });
+  }, 65536);
   return fits.load();
 }
 

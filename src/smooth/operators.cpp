@@ -8,7 +8,7 @@
 #include <cmath>
 
 #include "common/huge_pages.hpp"
-#include "common/parallel_index.hpp"
+#include "common/for_each.hpp"
 #include "smooth/cotangent_impl.hpp"
 #include "smooth/operators_impl.hpp"
 
@@ -64,7 +64,7 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
   // Vertices that collapsed onto a neighbour have no area; a floor keeps D invertible without
   // changing any healthy vertex. A constant of the parameters (from h), not of the mesh: a vertex's
   // operator row depends on its ring alone.
-  parallel_for_index(nv, 16384, [&](std::size_t i) { op.area[i] = std::max(op.area[i], area_floor); });
+  for_each_index(nv, [&](std::size_t i) { op.area[i] = std::max(op.area[i], area_floor); }, 16384);
   return op;
 }
 

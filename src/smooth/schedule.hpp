@@ -10,9 +10,11 @@
 // position is a function of the particles within R_local of it (local_reach).
 #pragma once
 
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 
+#include "common/clock.hpp"
 #include "meniscus/params.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "meniscus/vec.hpp"
@@ -92,5 +94,50 @@ inline SmoothSchedule smooth_schedule(const Params& p) {
 /// (B = W D⁻¹ W). A vertex's final position depends on the initial vertices within this many rings
 /// of it and on the particles near them.
 inline int smoothing_rings(const SmoothSchedule& s) { return s.steps_a + 2 * (s.steps_b + s.steps_free); }
+
+/// The schedule, run by both backends over their sweeps `s` (smooth.cpp, cuda/smooth.cu), which
+/// provide: a_begin() / a_sweep(weight) / a_end() (the A sweeps' second iterate held between);
+/// build_operator() (W and D from the current mesh); set_damping(), update_wx() and energy() (xᵀBx
+/// from W x); b_sweep(constrained) (W x is updated after it); damped_vertices() and
+/// least_damping() once the sweeps are done; swept() after every sweep (progress); and
+/// kHostTimed: whether the host's clock measures the sweeps (the device's launches return at once).
+template <class Sweeps>
+SmoothingStats run_schedule(const SmoothSchedule& o, Sweeps& s) {
+  SmoothingStats report;
+  if (o.steps_a > 0) {
+    const auto start = std::chrono::steady_clock::now();
+    s.a_begin();
+    float weight = 1.0f;
+    for (int k = 0; k < o.steps_a; ++k) {
+      weight = chebyshev_weight(k, o.steps_a, weight, o.solver, o.chebyshev_rho);
+      s.a_sweep(weight);
+      s.swept();
+    }
+    s.a_end();
+    if constexpr (Sweeps::kHostTimed) report.a_sweeps_seconds = seconds_since(start);
+  }
+  const int steps_b = o.steps_b + o.steps_free;
+  if (steps_b <= 0) return report;
+  s.build_operator();
+  const auto start = std::chrono::steady_clock::now();
+  s.set_damping();
+  s.update_wx();
+  report.energy_start = s.energy();
+  for (int k = 0; k < steps_b; ++k) {
+    if (o.rebuild_b > 0 && k > 0 && k % o.rebuild_b == 0) {
+      s.build_operator();
+      s.set_damping();
+      s.update_wx();
+    }
+    s.b_sweep(k < o.steps_b);  // the last steps_free sweeps unconstrained
+    s.update_wx();
+    s.swept();
+  }
+  report.energy_final = s.energy();
+  report.damped_vertices = s.damped_vertices();
+  report.relax_b_min = s.least_damping();
+  if constexpr (Sweeps::kHostTimed) report.b_sweeps_seconds = seconds_since(start);
+  return report;
+}
 
 }  // namespace meniscus

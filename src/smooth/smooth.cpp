@@ -14,132 +14,112 @@
 
 #include "common/clock.hpp"
 #include "common/huge_pages.hpp"
-#include "common/parallel_index.hpp"
+#include "common/for_each.hpp"
 #include "memory_scope.hpp"
 #include "mesh/compact.hpp"
 #include "mesh/components.hpp"
 #include "mesh/packed_triangles.hpp"
 #include "smooth/adjacency.hpp"
 #include "smooth/operators.hpp"
+#include "smooth/sweeps_impl.hpp"
 
 namespace meniscus {
 
 namespace {
 
-template <class F>
-void for_each_vertex(std::size_t n, F&& f) {
-  parallel_for_index(n, 1024, [&](std::size_t i) { f(uint32_t(i)); });
-}
+/// Projects vertex i, moved by a sweep from `from` (where its previous projection left it), through
+/// the constraint's particle lists (Cache: NeighbourCache, EllipsoidCache).
+template <class Cache, class Constraint>
+struct CachedProjection {
+  Cache* cache;
+  const Constraint* constraint;
+  Vec3f operator()(uint32_t i, Vec3f moved, Vec3f from) const { return cache->project(*constraint, i, moved, from); }
+};
 
-template <class Neighbors>
-Vec3f neighbour_mean(const Adjacency& adj, const Neighbors& neighbors, std::span<const Vec3f> x, uint32_t i) {
-  return neighbour_mean_row(adj.offsets.data(), neighbors, x.data(), i);
-}
-
-/// The schedule (smooth/schedule.hpp): Jacobi sweeps, every one reading only the previous
-/// iterate, so a vertex's result depends on its rings and its particles alone. `project(i, from)`
-/// projects vertex i in place (when `constrained_any`), `from` being where the vertex was before
-/// the move (where its previous projection left it). `adj` is the triangles' (its triangle or corner
-/// lists are freed once the operator is built); `triangles` may be empty when it has corner lists.
-/// `neighbors`: adj's neighbour lists as Adjacency::with_neighbors gives them.
+/// The sweeps of the schedule (run_schedule, smooth/schedule.hpp) on the CPU: the shared
+/// per-vertex work (smooth/sweeps_impl.hpp) over for_each_index. x holds the current iterate.
+/// `adj` is the triangles' (its triangle or corner lists are freed once the operator is built when
+/// it is built once); `triangles` may be empty when it has corner lists. `neighbors`: adj's
+/// neighbour lists as Adjacency::with_neighbors gives them.
 template <class Neighbors, class Project>
-SmoothingStats smooth_with(std::vector<Vec3f>& x, std::span<const Triangle> triangles, Adjacency& adj,
-                         const Neighbors& neighbors, bool constrained_any, Project&& project_constraint,
-                         const SmoothOptions& o, const std::function<void(double)>& progress) {
-  SmoothingStats report;
-  const std::size_t nv = x.size();
-  if (nv == 0 || o.steps_a + o.steps_b + o.steps_free == 0) return report;  // no sweep: no set-up either
-  const bool weighted = o.vertex_relax.size() == nv;
-  auto vertex_factor = [&](uint32_t i) { return weighted ? o.vertex_relax[i] : 1.0f; };
-  const int total = o.steps_a + o.steps_b + o.steps_free;
+struct CpuSweeps {
+  static constexpr bool kHostTimed = true;
+  static constexpr std::size_t kGrain = 1024;
+
+  std::vector<Vec3f>& x;
+  std::span<const Triangle> triangles;
+  Adjacency& adj;
+  Neighbors neighbors;
+  bool constrained_any;
+  Project project;
+  const SmoothOptions& o;
+  const std::function<void(double)>& progress;
+
   int done = 0;
-  auto tick = [&] {
-    ++done;
-    if (progress && total > 0) progress(double(done) / total);
-  };
+  std::vector<Vec3f> other{};  // the A sweeps' x⁽ˢ⁻¹⁾, read at random with x by every sweep: on huge pages
+  CotanOperator op{};
+  std::vector<Vec3f> wx{};    // W x of the current iterate
+  std::vector<float> omega{};  // each vertex's B damping
+  unsigned long long damped = 0;
 
-  // --- A: constrained graph-Laplacian sweeps, Chebyshev-accelerated ------------------------------
-  // x holds x⁽ˢ⁾, other x⁽ˢ⁻¹⁾, which only its own vertex reads: sweep s writes x⁽ˢ⁺¹⁾ there.
-  const auto a_start = std::chrono::steady_clock::now();
-  if (o.steps_a > 0) {
-    std::vector<Vec3f> other;  // read at random with x by every sweep: on huge pages
-    resize_huge(other, nv);
-    parallel_for_index(nv, 4096, [&](std::size_t i) { other[i] = x[i]; });
-    float weight = 1.0f;
-    for (int s = 0; s < o.steps_a; ++s, tick()) {
-      weight = chebyshev_weight(s, o.steps_a, weight, o.solver, o.chebyshev_rho);
-      for_each_vertex(nv, [&](uint32_t i) {
-        other[i] = a_sweep_position(x[i], neighbour_mean(adj, neighbors, x, i), other[i], o.relax_a, vertex_factor(i),
-                                    weight);
-      });
-      x.swap(other);  // other: where the vertices were, where their last projection left them
-      if (constrained_any) for_each_vertex(nv, [&](uint32_t i) { project_constraint(i, other[i]); });
-    }
+  std::size_t nv() const { return x.size(); }
+  SweepRows<Neighbors> rows() const {
+    // The CPU keeps no diagonal of W (4 bytes a vertex less): the row functions sum it.
+    return {adj.offsets.data(), neighbors, op.w.data(), nullptr, op.area.data(),
+            o.vertex_relax.size() == nv() ? o.vertex_relax.data() : nullptr};
   }
-  if (o.steps_a > 0) report.a_sweeps_seconds = seconds_since(a_start);
+  void swept() {
+    ++done;
+    const int total = o.steps_a + o.steps_b + o.steps_free;
+    if (progress && total > 0) progress(double(done) / total);
+  }
 
-  // --- B: bilaplacian sweeps, constrained then free, damped per vertex --------------------------
-  const int steps_b = o.steps_b + o.steps_free;
-  if (steps_b > 0) {
-    CotanOperator op = build_cotan_operator(x, triangles, adj, o.area_floor);
-    const auto b_start = std::chrono::steady_clock::now();
-    if (o.rebuild_b == 0) {
+  void a_begin() {
+    resize_huge(other, nv());
+    for_each_index(nv(), [&](std::size_t i) { other[i] = x[i]; }, 4096);
+  }
+  void a_sweep(float weight) {
+    for_each_index(nv(), ASweep<Neighbors, Project>{rows(), x.data(), other.data(), o.relax_a, weight,
+                                                    constrained_any, project}, kGrain);
+    x.swap(other);
+  }
+  void a_end() { std::vector<Vec3f>().swap(other); }
+
+  void build_operator() {
+    const bool first = op.area.empty();
+    op = build_cotan_operator(x, triangles, adj, o.area_floor);
+    if (first && o.rebuild_b == 0) {
       // The triangle or corner lists only serve to build the operator: free them for the sweeps
-      // (16 bytes a vertex as corner lists, 24 as triangle lists).
-      // (swap with empty vectors: `= {}` would keep the capacity).
+      // (16 bytes a vertex as corner lists, 24 as triangle lists; swap with empty vectors: `= {}`
+      // would keep the capacity).
       UninitVector<uint32_t>().swap(adj.tri_offsets);
       UninitVector<uint32_t>().swap(adj.tri_ids);
       UninitVector<uint32_t>().swap(adj.corner_offsets);
       UninitVector<CornerSlots>().swap(adj.corners);
       give_back_free_heap_pages();  // as at the end of the set-up
     }
-    // wx = W x of the current iterate; omega[i] vertex i's damping (b_stable_damping), set with
-    // the operator.
-    std::vector<Vec3f> wx;
-    std::vector<float> omega;
-    resize_huge(wx, nv);
-    resize_huge(omega, nv);
-    auto set_damping = [&] {
-      std::atomic<std::size_t> damped{0};
-      for_each_vertex(nv, [&](uint32_t i) {
-        omega[i] = b_stable_damping(adj.offsets.data(), neighbors, op.w.data(), nullptr, op.area.data(), i, o.relax_b);
-        if (omega[i] < o.relax_b) damped.fetch_add(1, std::memory_order_relaxed);
-      });
-      report.damped_vertices = damped.load();
-    };
-    auto update_wx = [&] {
-      for_each_vertex(nv, [&](uint32_t i) { wx[i] = apply_w_row(adj.offsets.data(), neighbors, op.w.data(), nullptr, x.data(), i); });
-    };
-    set_damping();
-    update_wx();
-    report.energy_start = bilaplacian_energy(op, wx);
-    for (int s = 0; s < steps_b; ++s, tick()) {
-      const bool constrained = s < o.steps_b && constrained_any;
-      if (o.rebuild_b > 0 && s > 0 && s % o.rebuild_b == 0) {
-        op = build_cotan_operator(x, triangles, adj, o.area_floor);
-        set_damping();
-        update_wx();
-      }
-      // Every vertex moves from (W x) of its ring, which no move of this sweep changes.
-      for_each_vertex(nv, [&](uint32_t i) {
-        const Vec3f from = x[i];
-        const float w_ii = w_diagonal(adj, op, i);
-        float b_ii;
-        const Vec3f bx = bilaplacian_row_and_diagonal(adj.offsets.data(), neighbors, op.w.data(), w_ii, op.area.data(),
-                                                      wx.data(), i, &b_ii);
-        x[i] = b_sweep_position(x[i], bx, b_ii, omega[i], vertex_factor(i));
-        if (constrained) project_constraint(i, from);
-      });
-      update_wx();
+    if (first) {
+      resize_huge(wx, nv());
+      resize_huge(omega, nv());
     }
-    report.energy_final = bilaplacian_energy(op, wx);
+  }
+  void set_damping() {
+    damped = 0;
+    for_each_index(nv(), BDamping<Neighbors>{rows(), o.relax_b, omega.data(), &damped}, kGrain);
+  }
+  void update_wx() { for_each_index(nv(), ApplyW<Neighbors>{rows(), x.data(), wx.data()}, kGrain); }
+  double energy() const { return bilaplacian_energy(op, wx); }
+  void b_sweep(bool constrained) {
+    for_each_index(nv(), BSweep<Neighbors, Project>{rows(), wx.data(), omega.data(), x.data(),
+                                                    constrained && constrained_any, project}, kGrain);
+  }
+  std::size_t damped_vertices() const { return std::size_t(damped); }
+  double least_damping() const {
     float least = o.relax_b;
     for (float w : omega) least = std::min(least, w);
-    report.relax_b_min = least;
-    report.b_sweeps_seconds = seconds_since(b_start);
+    return least;
   }
-  return report;
-}
+};
 
 /// Keeps a mesh's triangles packed (PackedTriangles) while the sweeps run; unpacks them when
 /// restore() is called or, if the sweeps throw first, when it is destroyed.
@@ -193,9 +173,11 @@ SmoothingStats smooth_cached(std::vector<Vec3f>& x, std::vector<Triangle>& trian
     Cache cache;
     if (constraint) cache.build(*constraint, x);
     report = adj.with_neighbors([&](const auto& neighbors) {
-      return smooth_with(
-          x, triangles, adj, neighbors, constraint != nullptr,
-          [&](uint32_t i, Vec3f from) { x[i] = cache.project(*constraint, i, x[i], from); }, o, progress);
+      using Neighbors = std::decay_t<decltype(neighbors)>;
+      using Project = CachedProjection<Cache, Constraint>;
+      CpuSweeps<Neighbors, Project> sweeps{x, triangles, adj, neighbors, constraint != nullptr,
+                                           Project{&cache, constraint}, o, progress};
+      return run_schedule(o, sweeps);
     });
   }  // the adjacency, operator lists and particle lists freed: room for the triangles
   packed.restore();
@@ -252,7 +234,7 @@ ComponentBatches component_batches(std::size_t nv, std::span<const Triangle> tri
     filled += size[k];
   }
   ++batches.count;
-  parallel_for_index(nv, 4096, [&](std::size_t v) { of[v] = batch_of[of[v]]; });
+  for_each_index(nv, [&](std::size_t v) { of[v] = batch_of[of[v]]; }, 4096);
   return batches;
 }
 
@@ -318,11 +300,11 @@ SmoothingStats smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& tria
     std::vector<float> relax;
     resize_huge(xb, vertices.size());
     if (weighted) relax.resize(vertices.size());
-    parallel_for_index(vertices.size(), 4096, [&](std::size_t k) {
+    for_each_index(vertices.size(), [&](std::size_t k) {
       local[vertices[k]] = uint32_t(k);
       xb[k] = x[vertices[k]];
       if (weighted) relax[k] = o.vertex_relax[vertices[k]];
-    });
+    }, 4096);
     std::vector<Triangle> tb = packed.select(
         [&](const Triangle& t) { return batches.of[t[0]] == b; },
         [&](const Triangle& t) { return Triangle{local[t[0]], local[t[1]], local[t[2]]}; },
@@ -333,7 +315,7 @@ SmoothingStats smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& tria
       if (progress) progress((double(done) + f * double(vertices.size())) / double(nv));
     };
     const SmoothingStats r = smooth_cached<Cache>(xb, tb, constraint, ob, pb);
-    parallel_for_index(vertices.size(), 4096, [&](std::size_t k) { x[vertices[k]] = xb[k]; });
+    for_each_index(vertices.size(), [&](std::size_t k) { x[vertices[k]] = xb[k]; }, 4096);
     done += vertices.size();
     total.energy_start += r.energy_start;
     total.energy_final += r.energy_final;

@@ -19,7 +19,7 @@
 #include "meniscus/reconstruct.hpp"
 #include "mesh/vertex_order_impl.hpp"
 #include "pipeline/stage_plan.hpp"
-#include "transfer/normals.hpp"
+#include "mesh/normals.hpp"
 
 namespace meniscus {
 

@@ -7,7 +7,7 @@
 #include "mesh/compact.hpp"
 #include "mesh/components.hpp"
 #include "mesh/ray_parity_impl.hpp"
-#include "transfer/normals.hpp"
+#include "mesh/normals.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

@@ -17,7 +17,7 @@
 #include "pipeline/stages.hpp"
 #include "smooth/smooth.hpp"
 #include "transfer/attribute_transfer.hpp"
-#include "transfer/normals.hpp"
+#include "mesh/normals.hpp"
 #include "transfer/velocity_weight_impl.hpp"
 
 namespace meniscus {

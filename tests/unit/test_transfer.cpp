@@ -11,7 +11,9 @@
 #include "meniscus/quality.hpp"
 #include "support/test_support.hpp"
 #include "transfer/attribute_transfer.hpp"
-#include "transfer/normals.hpp"
+#include "mesh/normals.hpp"
+#include "mesh/normals_impl.hpp"
+#include "common/for_each.hpp"
 
 namespace meniscus {
 namespace {
@@ -92,6 +94,34 @@ TEST(Normals, ParallelWavesMatchASerialSumOnEveryThreadCount) {
   }
 }
 
+TEST(Normals, TheCpuScatterIsTheSharedGatherBitForBit) {
+  // The CPU scatters the triangles' cross products (vertex_normals, its fast path); the device
+  // gathers them per vertex with the shared GatherNormal. Run on the CPU over incidence lists made
+  // here, the gather must give the scatter's bits on both meshes of the test above.
+  TriangleMesh hub = height_field(200, 300);
+  for (std::size_t t = 0; t < hub.triangles.size(); t += 2000) hub.triangles[t][0] = 0;
+  for (const TriangleMesh& m : {height_field(200, 300), hub}) {
+    const std::size_t nv = m.vertices.size();
+    std::vector<uint32_t> offsets(nv + 1, 0), ids;
+    for (const Triangle& t : m.triangles)
+      for (const uint32_t v : t) ++offsets[v + 1];
+    for (std::size_t v = 0; v < nv; ++v) offsets[v + 1] += offsets[v];
+    ids.resize(offsets[nv]);
+    std::vector<uint32_t> fill(offsets.begin(), offsets.end() - 1);
+    for (std::size_t f = 0; f < m.triangles.size(); ++f)
+      for (const uint32_t v : m.triangles[f]) ids[fill[v]++] = uint32_t(f);  // ascending per vertex
+    std::vector<Vec3f> gathered(nv);
+    for_each_index(Host{}, nv, GatherNormal<const Triangle*>{m.vertices.data(), m.triangles.data(), offsets.data(),
+                                                             ids.data(), gathered.data()});
+    const std::vector<Vec3f> scattered = vertex_normals(m.vertices, m.triangles);
+    std::size_t hub_triangles = offsets[1] - offsets[0];
+    EXPECT_GT(hub_triangles, 0u);
+    for (std::size_t v = 0; v < nv; ++v)
+      ASSERT_TRUE(gathered[v].x == scattered[v].x && gathered[v].y == scattered[v].y && gathered[v].z == scattered[v].z)
+          << v;
+  }
+}
+
 TEST(Erosion, MovesVerticesInwardAndCountsFlips) {
   TriangleMesh m = octahedron(2.0f);
   const double v0 = signed_volume(m);
@@ -143,6 +173,39 @@ TEST(AttributeTransfer, MatchesABruteForceWeightedMean) {
       EXPECT_NEAR(out.values[v * 2 + std::size_t(c)], expected, 1e-4) << v;
     }
   }
+}
+
+TEST(AttributeTransfer, ManyComponentsAreEachTheirOwnWeightedMean) {
+  // 9 components: three walks of the grid (4 + 4 + 1). Each component must be the transfer of
+  // that component alone, bit for bit, and a far vertex takes the nearest particle's values.
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(0, 1);
+  std::vector<Vec3f> particles(400);
+  constexpr int kComponents = 9;
+  Attribute a{"many", kComponents, false, {}};
+  for (auto& p : particles) {
+    p = {u(rng), u(rng), u(rng)};
+    for (int c = 0; c < kComponents; ++c) a.values.push_back(u(rng) * float(c + 1));
+  }
+  const HashGrid grid(particles, 0.1f);
+  std::vector<Vec3f> vertices(150);
+  for (auto& v : vertices) v = {u(rng), u(rng), u(rng)};
+  vertices.push_back({-4, 2, 9});
+  const Attribute all = transfer_attribute(a, grid, vertices, 0.12f);
+  ASSERT_EQ(all.values.size(), vertices.size() * kComponents);
+  for (int c = 0; c < kComponents; ++c) {
+    Attribute one{"one", 1, false, {}};
+    for (std::size_t i = 0; i < particles.size(); ++i) one.values.push_back(a.values[i * kComponents + std::size_t(c)]);
+    const Attribute alone = transfer_attribute(one, grid, vertices, 0.12f);
+    for (std::size_t v = 0; v < vertices.size(); ++v)
+      ASSERT_EQ(all.values[v * kComponents + std::size_t(c)], alone.values[v]) << "component " << c << " vertex " << v;
+  }
+  std::size_t nearest = 0;
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    if (length2(particles[i] - vertices.back()) < length2(particles[nearest] - vertices.back())) nearest = i;
+  for (int c = 0; c < kComponents; ++c)
+    EXPECT_EQ(all.values[(vertices.size() - 1) * kComponents + std::size_t(c)],
+              a.values[nearest * kComponents + std::size_t(c)]);
 }
 
 TEST(Voids, RemovesSmallInwardComponentsOnly) {

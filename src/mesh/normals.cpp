@@ -1,10 +1,12 @@
-// meniscus — area-weighted vertex normals and erosion (docs/method.md).
-#include "transfer/normals.hpp"
+// meniscus — area-weighted vertex normals and erosion (docs/method.md): the CPU's scatter of the
+// normals; erosion's passes shared with the device (normals_impl.hpp).
+#include "mesh/normals.hpp"
+#include "common/for_each.hpp"
 #include "common/huge_pages.hpp"
 #include "common/prefetch.hpp"
+#include "mesh/normals_impl.hpp"
 
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <cstdint>
@@ -97,22 +99,10 @@ std::vector<Vec3f> vertex_normals(std::span<const Vec3f> x, std::span<const Tria
 
 std::size_t erode(std::vector<Vec3f>& x, std::span<const Triangle> triangles, float distance) {
   const std::vector<Vec3f> n = vertex_normals(x, triangles);
-  std::vector<Vec3f> before_normal(triangles.size());
-  tbb::parallel_for(std::size_t(0), triangles.size(), [&](std::size_t f) {
-    const Triangle& t = triangles[f];
-    before_normal[f] = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
-  });
-  tbb::parallel_for(std::size_t(0), x.size(), [&](std::size_t i) { x[i] -= n[i] * distance; });
-  return tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, triangles.size(), 4096), std::size_t(0),
-      [&](const auto& r, std::size_t flipped) {
-        for (std::size_t f = r.begin(); f != r.end(); ++f) {
-          const Triangle& t = triangles[f];
-          flipped += dot(cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]), before_normal[f]) < 0.0f;
-        }
-        return flipped;
-      },
-      std::plus<>());
+  std::vector<Vec3f> before(triangles.size());
+  unsigned long long flipped = 0;
+  erode_along(Host{}, x.data(), triangles.data(), x.size(), triangles.size(), n.data(), before.data(), distance, &flipped);
+  return std::size_t(flipped);
 }
 
 }  // namespace meniscus

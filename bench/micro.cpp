@@ -11,7 +11,7 @@
 #include "smooth/adjacency.hpp"
 #include "smooth/operators.hpp"
 #include "smooth/smooth.hpp"
-#include "transfer/normals.hpp"
+#include "mesh/normals.hpp"
 
 namespace {
 

@@ -2,7 +2,7 @@
 // range, default, unit and help. Params::validate, the configuration keys (config.hpp), the
 // "parameters" of the --stats JSON, the CLI's options and their help, the Python keywords and
 // the Blender panel's limits are all made from it, so a name, a range or a default cannot differ
-// between them. Adding a parameter: a member of Params, one entry in src/parameters.cpp, and its use.
+// between them. Adding a parameter: a member of Params, one entry in src/params/parameters.cpp, and its use.
 #pragma once
 
 #include <string>

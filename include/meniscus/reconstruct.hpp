@@ -59,7 +59,7 @@ struct Stats {
   std::size_t decimated_triangles = 0; ///< decimate: triangles the simplification removed
   double decimate_error = 0;           ///< decimate: the largest distance measured between the surfaces
   std::size_t decimate_kept_whole = 0; ///< decimate: components kept unsimplified to hold the bound
-  int decimate_rounds = 0;             ///< decimate: simplifications run (mesh/decimate.hpp)
+  int decimate_rounds = 0;             ///< decimate: simplifications run (post/decimate.hpp)
   std::size_t peak_memory_bytes = 0;   ///< peak resident set size of the process
   int threads = 0;
   std::string threads_from;            ///< where the thread count came from: --threads, the CPU affinity, Slurm

@@ -2,7 +2,7 @@
 #include "extract/weld.hpp"
 #include "common/huge_pages.hpp"
 #include "mesh/compact.hpp"
-#include "memory_scope.hpp"
+#include "system/memory_scope.hpp"
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>

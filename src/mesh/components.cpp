@@ -4,11 +4,15 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <atomic>
 #include <memory>
 #include <utility>
 
 #include "common/huge_pages.hpp"
+#include "common/prefetch.hpp"
+#include "mesh/compact.hpp"
+#include "mesh/volume_impl.hpp"
 
 namespace meniscus {
 
@@ -84,5 +88,77 @@ std::vector<uint32_t> component_roots(std::size_t vertex_count, std::span<const 
   });
   return root;
 }
+
+MeshComponents mesh_components(const TriangleMesh& mesh) {
+  const std::size_t nv = mesh.vertices.size();
+  const std::size_t nt = mesh.triangles.size();
+  MeshComponents c;
+  c.root = component_roots(nv, mesh.triangles);
+
+  // Signed volume per component. Fixed chunks of triangles (in the extraction's spatial order, so
+  // a chunk holds long runs of one component) sum runs locally; the runs, in chunk order, are
+  // stably sorted by root and added up, so each sum takes its terms in triangle order and does
+  // not depend on the thread count.
+  constexpr std::size_t kChunk = std::size_t(1) << 16;
+  constexpr std::size_t kAhead = 64;  // as in vertex_normals: the corners of a triangle ahead,
+  // and the triangles themselves 2 KB ahead (common/prefetch.hpp)
+  const std::size_t chunks = (nt + kChunk - 1) / kChunk;
+  std::vector<std::vector<Run>> runs(chunks);
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t k) {
+    auto& out = runs[k];
+    for (std::size_t i = k * kChunk, end = std::min(nt, i + kChunk); i < end; ++i) {
+      prefetch_stream(mesh.triangles.data(), i, end);
+      if (i + kAhead < end) {
+        const Triangle& ahead = mesh.triangles[i + kAhead];
+        for (const uint32_t v : ahead) __builtin_prefetch(&mesh.vertices[v]);
+        __builtin_prefetch(&c.root[ahead[0]]);
+      }
+      const Triangle& t = mesh.triangles[i];
+      const Vec3f a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], cc = mesh.vertices[t[2]];
+      const double v = signed_volume6(a, b, cc) / 6.0;
+      const uint32_t r = c.root[t[0]];
+      if (out.empty() || out.back().root != r) {
+        out.push_back({r, uint32_t(i), uint32_t(i + 1), v});
+      } else {
+        out.back().end = uint32_t(i + 1);
+        out.back().volume += v;
+      }
+    }
+  });
+  for (const auto& chunk : runs) c.runs.insert(c.runs.end(), chunk.begin(), chunk.end());
+  std::vector<std::vector<Run>>().swap(runs);
+  std::stable_sort(c.runs.begin(), c.runs.end(), [](const Run& a, const Run& b) { return a.root < b.root; });
+  for (const Run& run : c.runs)
+    if (c.components.empty() || c.components.back().root != run.root)
+      c.components.push_back({run.root, 0.0 + run.volume});  // from 0.0, as the per-vertex sums were
+    else
+      c.components.back().volume += run.volume;
+  return c;
+}
+
+ComponentTriangles triangles_of(const MeshComponents& c, std::span<const uint32_t> roots) {
+  ComponentTriangles out;
+  auto run = c.runs.begin();
+  for (const uint32_t r : roots) {
+    run = std::lower_bound(run, c.runs.end(), r, [](const Run& a, uint32_t root) { return a.root < root; });
+    for (; run != c.runs.end() && run->root == r; ++run)
+      for (uint32_t t = run->first; t < run->end; ++t) out.triangles.push_back(t);
+    out.start.push_back(uint32_t(out.triangles.size()));
+  }
+  return out;
+}
+
+void drop_components(TriangleMesh& mesh, const MeshComponents& c, const std::vector<uint32_t>& roots) {
+  std::vector<uint32_t> triangles = triangles_of(c, roots).triangles;
+  std::sort(triangles.begin(), triangles.end());
+  std::vector<uint32_t> vertices;
+  vertices.reserve(3 * triangles.size());
+  for (const uint32_t t : triangles)
+    for (const uint32_t v : mesh.triangles[t]) vertices.push_back(v);
+  std::sort(vertices.begin(), vertices.end());
+  vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+  drop_sorted(mesh, triangles, vertices);
+}
+
 
 }  // namespace meniscus

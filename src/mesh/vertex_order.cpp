@@ -10,7 +10,7 @@
 
 #include "common/huge_pages.hpp"
 #include "common/radix_sort.hpp"
-#include "memory_scope.hpp"
+#include "system/memory_scope.hpp"
 #include "mesh/vertex_order_impl.hpp"
 
 namespace meniscus {

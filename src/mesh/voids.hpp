@@ -36,11 +36,4 @@ std::size_t remove_small_voids(TriangleMesh& mesh, double max_volume);
 std::size_t remove_unsupported_blobs(TriangleMesh& mesh, const HashGrid& particles, double max_volume,
                                      double min_volume);
 
-/// Removes the outward closed components (positive volume) that enclose fewer than
-/// `min_particles` of `particles`, with their vertices, normals and attributes: a particle counts
-/// for the component of its nearest vertex within `reach` when it lies on that vertex's inner side
-/// (its normal, or the mesh's vertex normals computed here). Returns the number removed.
-std::size_t remove_components_enclosing_few(TriangleMesh& mesh, std::span<const Vec3f> particles, float reach,
-                                            std::size_t min_particles);
-
 }  // namespace meniscus

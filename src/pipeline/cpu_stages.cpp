@@ -10,7 +10,7 @@
 #include "field/kernel_field.hpp"
 #include "field/kernel_impl.hpp"
 #include "grid/hash_grid.hpp"
-#include "memory_scope.hpp"
+#include "system/memory_scope.hpp"
 #include "mesh/vertex_order.hpp"
 #include "mesh/voids.hpp"
 #include "pipeline/internal.hpp"

@@ -11,8 +11,9 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
-#include "mesh/clip.hpp"
-#include "mesh/decimate.hpp"
+#include "post/clip.hpp"
+#include "post/strays.hpp"
+#include "post/decimate.hpp"
 #include "mesh/voids.hpp"
 #include "meniscus/backend.hpp"
 #include "meniscus/errors.hpp"

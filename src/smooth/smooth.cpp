@@ -15,7 +15,7 @@
 #include "common/clock.hpp"
 #include "common/huge_pages.hpp"
 #include "common/for_each.hpp"
-#include "memory_scope.hpp"
+#include "system/memory_scope.hpp"
 #include "mesh/compact.hpp"
 #include "mesh/components.hpp"
 #include "mesh/packed_triangles.hpp"

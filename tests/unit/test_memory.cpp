@@ -7,7 +7,7 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "memory_scope.hpp"
+#include "system/memory_scope.hpp"
 #include "meniscus/memory.hpp"
 #include "support/test_support.hpp"
 

@@ -1,4 +1,4 @@
-// meniscus — closing a box cut with the box's faces (mesh/clip.hpp): per face, a constrained
+// meniscus — closing a box cut with the box's faces (post/clip.hpp): per face, a constrained
 // Delaunay triangulation (CGAL's Constrained_Delaunay_triangulation_2, exact predicates) of the
 // cut's curves and the face's edges, and the regions of it inside the uncut surface.
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
@@ -12,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-#include "mesh/clip.hpp"
+#include "post/clip.hpp"
 #include "mesh/directed_edges.hpp"
 
 namespace meniscus {

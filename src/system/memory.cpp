@@ -1,7 +1,7 @@
 // meniscus — the allocator settings of meniscus/memory.hpp.
 #include "meniscus/memory.hpp"
 
-#include "memory_scope.hpp"
+#include "system/memory_scope.hpp"
 
 #include <sys/resource.h>
 

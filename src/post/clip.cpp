@@ -1,5 +1,5 @@
-// meniscus — cutting the surface by a box (mesh/clip.hpp).
-#include "mesh/clip.hpp"
+// meniscus — cutting the surface by a box (post/clip.hpp).
+#include "post/clip.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

@@ -1,5 +1,5 @@
-// meniscus — simplification under a measured error bound (mesh/decimate.hpp).
-#include "mesh/decimate.hpp"
+// meniscus — simplification under a measured error bound (post/decimate.hpp).
+#include "post/decimate.hpp"
 
 #include <meshoptimizer.h>
 #include <tbb/blocked_range.h>

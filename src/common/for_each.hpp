@@ -16,26 +16,34 @@ namespace meniscus {
 /// The CPU backend, as a tag for code shared with the device.
 struct Host {};
 
-/// Indices per task when the caller names none: the element-wise passes are a few dozen
-/// instructions an element.
-inline constexpr std::size_t kDefaultGrain = 1024;
-
-/// Calls f(i) for every i in [0, n), in parallel over ranges of at least `grain` indices.
+/// Calls f(i) for every i in [0, n), in parallel over ranges of at least `grain` indices (oneTBB's
+/// auto partitioner splits further only while threads are idle).
 template <class F>
-void for_each_index(std::size_t n, F&& f, std::size_t grain = kDefaultGrain) {
+void for_each_index(std::size_t n, std::size_t grain, F&& f) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
   });
 }
 
-/// for_each_index on the CPU backend named by its tag (code shared with the device).
+/// for_each_index with no least range: for loops whose elements are chunks, blocks or slabs of
+/// work, or whose work per element varies.
 template <class F>
-void for_each_index(Host, std::size_t n, F&& f, std::size_t grain = kDefaultGrain) {
-  for_each_index(n, f, grain);
+void for_each_index(std::size_t n, F&& f) {
+  for_each_index(n, 1, f);
 }
 
-/// Calls f(begin, end) for consecutive chunks covering [0, n), in parallel: for loops that keep
-/// state over a chunk (a scratch buffer, a partial count, a prefetch stream).
+/// Indices per task in the shared per-element passes (a few dozen instructions an element).
+inline constexpr std::size_t kElementGrain = 1024;
+
+/// for_each_index on the CPU backend named by its tag (code shared with the device).
+template <class F>
+void for_each_index(Host, std::size_t n, F&& f) {
+  for_each_index(n, kElementGrain, f);
+}
+
+/// Calls f(begin, end) for consecutive chunks covering [0, n), each at least `grain` long, in
+/// parallel: for loops that keep state over a chunk (a scratch buffer, a partial count, a
+/// prefetch stream).
 template <class F>
 void for_each_chunk(std::size_t n, std::size_t grain, F&& f) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain),

@@ -16,8 +16,6 @@
 // in compaction, and the later passes' prefetched reads no longer gained from them.
 #pragma once
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
@@ -29,6 +27,8 @@
 
 #if defined(__linux__)
 #include <sys/mman.h>
+
+#include "common/for_each.hpp"
 #endif
 
 namespace meniscus {
@@ -99,7 +99,7 @@ inline void populate_pages(void* data, std::size_t bytes) {
   const std::uintptr_t begin = reinterpret_cast<std::uintptr_t>(data) & ~(kPage - 1);
   const std::uintptr_t end = (reinterpret_cast<std::uintptr_t>(data) + bytes + kPage - 1) & ~(kPage - 1);
   const std::size_t chunks = (end - begin + kChunk - 1) / kChunk;
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+  for_each_index(chunks, [&](std::size_t c) {
     const std::uintptr_t first = begin + c * kChunk, last = std::min(end, first + kChunk);
     (void)madvise(reinterpret_cast<void*>(first), last - first, MADV_POPULATE_WRITE);
   });

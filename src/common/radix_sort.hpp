@@ -4,14 +4,13 @@
 // triangles themselves by their smallest corner.
 #pragma once
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
 
+#include "common/for_each.hpp"
 #include "common/huge_pages.hpp"
 
 namespace meniscus {
@@ -37,7 +36,7 @@ void radix_sort_by(std::vector<T>& items, Key&& key, int first_bit, int end_bit)
     // The last pass may be narrower, so that bits from end_bit up never take part.
     const uint64_t mask = (end_bit - shift >= kDigitBits) ? kBuckets - 1 : (uint64_t(1) << (end_bit - shift)) - 1;
     auto digit = [&key, shift, mask](const T& item) { return std::size_t((uint64_t(key(item)) >> shift) & mask); };
-    tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    for_each_index(chunks, [&](std::size_t c) {
       std::array<std::size_t, kBuckets>& count = offsets[c];
       count.fill(0);
       for (std::size_t i = c * kChunk, end = std::min(n, i + kChunk); i < end; ++i) ++count[digit(items[i])];
@@ -58,7 +57,7 @@ void radix_sort_by(std::vector<T>& items, Key&& key, int first_bit, int end_bit)
     }
     if (one_digit) continue;  // this digit is the same everywhere: the pass would copy in order
     if (scratch.size() != n) resize_populated(scratch, n);
-    tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    for_each_index(chunks, [&](std::size_t c) {
       std::array<std::size_t, kBuckets>& next = offsets[c];
       for (std::size_t i = c * kChunk, end = std::min(n, i + kChunk); i < end; ++i)
         scratch[next[digit(items[i])]++] = items[i];

@@ -1,11 +1,10 @@
 // meniscus — block-parallel two-pass marching (Williams 2008; Edespong 2010 §4.3).
 #include "extract/block_marching.hpp"
+#include "common/for_each.hpp"
 #include "common/huge_pages.hpp"
 
 #include <fmt/format.h>
-#include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cstring>
@@ -101,24 +100,23 @@ std::vector<uint8_t> cell_inside_masks(const SparseField& field, float iso) {
   const std::size_t cells = std::size_t(kBlockSamples / spc);
   std::vector<uint8_t> masks;
   resize_populated(masks, field.block_count() * cells);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, field.block_count()),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t b = r.begin(); b != r.end(); ++b) {
-                        // SparseField::local_index is cell-major with a cell's samples adjacent,
-                        // so cell c's samples are v[c·spc, (c+1)·spc).
-                        const float* v = field.block_values(b).data();
-                        uint8_t* m = masks.data() + b * cells;
-                        // The next blocks' values, ahead of the loads (common/prefetch.hpp).
-                        if (b + 1 < r.end())
-                          for (std::size_t line = 0; line < kBlockSamples * sizeof(float); line += 64)
-                            __builtin_prefetch(reinterpret_cast<const char*>(v + kBlockSamples) + line);
-                        for (std::size_t c = 0; c < cells; ++c, v += spc) {
-                          unsigned bits = 0;
-                          for (int s = 0; s < spc; ++s) bits |= unsigned(v[s] < iso) << s;
-                          m[c] = uint8_t(bits);
-                        }
-                      }
-                    });
+  for_each_chunk(field.block_count(), 1, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t b = begin; b != end; ++b) {
+      // SparseField::local_index is cell-major with a cell's samples adjacent,
+      // so cell c's samples are v[c·spc, (c+1)·spc).
+      const float* v = field.block_values(b).data();
+      uint8_t* m = masks.data() + b * cells;
+      // The next blocks' values, ahead of the loads (common/prefetch.hpp).
+      if (b + 1 < end)
+        for (std::size_t line = 0; line < kBlockSamples * sizeof(float); line += 64)
+          __builtin_prefetch(reinterpret_cast<const char*>(v + kBlockSamples) + line);
+      for (std::size_t c = 0; c < cells; ++c, v += spc) {
+        unsigned bits = 0;
+        for (int s = 0; s < spc; ++s) bits |= unsigned(v[s] < iso) << s;
+        m[c] = uint8_t(bits);
+      }
+    }
+  });
   return masks;
 }
 
@@ -140,9 +138,9 @@ std::vector<Vec3i> blocks_to_march(const SparseField& field, std::span<const uin
       }
 
   tbb::enumerable_thread_specific<std::vector<uint64_t>> ghosts;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count), [&](const tbb::blocked_range<std::size_t>& r) {
+  for_each_chunk(count, 1, [&](std::size_t begin, std::size_t end) {
     std::vector<uint64_t>& local = ghosts.local();
-    for (std::size_t b = r.begin(); b != r.end(); ++b) {
+    for (std::size_t b = begin; b != end; ++b) {
       const auto first = cell_masks.begin() + std::ptrdiff_t(b * cells);
       // Ghosts matter only next to inside samples: unallocated space is all outside.
       if (std::all_of(first, first + std::ptrdiff_t(cells), [](uint8_t m) { return m == 0; })) continue;
@@ -248,10 +246,10 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
   out.block_corners.assign(blocks.size(), nullptr);
   out.block_crossings.assign(blocks.size(), nullptr);
   std::vector<uint64_t> triangle_offsets(blocks.size() + 1, 0), edge_offsets(blocks.size() + 1, 0);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+  for_each_chunk(blocks.size(), 1, [&](std::size_t begin, std::size_t end) {
     PaddedMasks masks;  // one per task, on the stack: no allocation in the loop
     Writer& w = writers.local();
-    for (std::size_t b = r.begin(); b != r.end(); ++b) {
+    for (std::size_t b = begin; b != end; ++b) {
       if (!gather_inside_masks(field, cell_masks, blocks[b], masks)) continue;
       // The crossing edges of the block's own cells (their far ends lie in the halo), written to
       // the page as they come and kept only if one crosses: a block without triangles may still
@@ -317,7 +315,7 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
 
 std::vector<uint64_t> MarchedCorners::flatten() const {
   std::vector<uint64_t> keys(corner_count());
-  tbb::parallel_for(std::size_t(0), block_edges.size(), [&](std::size_t b) {
+  for_each_index(block_edges.size(), [&](std::size_t b) {
     const std::span<const uint16_t> e = edges(b);
     uint64_t* out = keys.data() + 3 * triangle_offsets[b];
     for (const uint16_t c : corners(b)) *out++ = edge_key(b, e[c]);

@@ -1,12 +1,12 @@
 // meniscus — edge weld by radix sort + unique on lattice-edge keys (Williams 2008; Edespong 2010 §4.3).
 #include "extract/weld.hpp"
+#include "common/for_each.hpp"
 #include "common/huge_pages.hpp"
 #include "mesh/compact.hpp"
 #include "system/memory_scope.hpp"
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
@@ -187,24 +187,23 @@ void check_vertex_count(std::size_t vertices) {
 void compute_vertices(const std::vector<uint64_t>& vertex_keys, const DenseEdgeKeys& dense, const SparseField& field,
                       float iso, TriangleMesh& mesh) {
   resize_huge(mesh.vertices, vertex_keys.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertex_keys.size()),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      constexpr std::size_t kAhead = 16;
-                      CachedFieldReader reader(field);
-                      std::array<EdgeSamples, kAhead> ahead;
-                      auto locate = [&](std::size_t v) {
-                        const EdgeSamples e = edge_samples(dense.key(vertex_keys[v]), field.lattice(), reader);
-                        __builtin_prefetch(e.v0);
-                        __builtin_prefetch(e.v1);
-                        ahead[v % kAhead] = e;
-                      };
-                      for (std::size_t v = r.begin(); v != std::min(r.end(), r.begin() + kAhead); ++v) locate(v);
-                      for (std::size_t v = r.begin(); v != r.end(); ++v) {
-                        const EdgeSamples e = ahead[v % kAhead];
-                        if (v + kAhead < r.end()) locate(v + kAhead);
-                        mesh.vertices[v] = edge_vertex(e.p0, e.p1, *e.v0, *e.v1, iso, kEdgeClamp);
-                      }
-                    });
+  for_each_chunk(vertex_keys.size(), 1, [&](std::size_t begin, std::size_t end) {
+    constexpr std::size_t kAhead = 16;
+    CachedFieldReader reader(field);
+    std::array<EdgeSamples, kAhead> ahead;
+    auto locate = [&](std::size_t v) {
+      const EdgeSamples e = edge_samples(dense.key(vertex_keys[v]), field.lattice(), reader);
+      __builtin_prefetch(e.v0);
+      __builtin_prefetch(e.v1);
+      ahead[v % kAhead] = e;
+    };
+    for (std::size_t v = begin; v != std::min(end, begin + kAhead); ++v) locate(v);
+    for (std::size_t v = begin; v != end; ++v) {
+      const EdgeSamples e = ahead[v % kAhead];
+      if (v + kAhead < end) locate(v + kAhead);
+      mesh.vertices[v] = edge_vertex(e.p0, e.p1, *e.v0, *e.v1, iso, kEdgeClamp);
+    }
+  });
 }
 
 /// Numbers the runs of equal keys: `packed` holds (dense key << index_bits | index) words; after one
@@ -220,7 +219,7 @@ std::vector<uint64_t> number_runs(std::vector<uint64_t>& packed, int index_bits,
   auto key_of = [index_bits](uint64_t p) { return p >> index_bits; };
   auto is_head = [&](std::size_t i) { return i == 0 || key_of(packed[i]) != key_of(packed[i - 1]); };
   std::vector<std::size_t> first_vertex(chunks + 1, 0);
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+  for_each_index(chunks, [&](std::size_t c) {
     std::size_t heads = 0;
     for (std::size_t i = c * kChunk, end = std::min(n, i + kChunk); i < end; ++i) heads += is_head(i);
     first_vertex[c + 1] = heads;
@@ -231,7 +230,7 @@ std::vector<uint64_t> number_runs(std::vector<uint64_t>& packed, int index_bits,
   std::vector<uint64_t> vertex_keys;
   resize_populated(vertex_keys, first_vertex.back());
   const uint64_t index_mask = (uint64_t(1) << index_bits) - 1;
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+  for_each_index(chunks, [&](std::size_t c) {
     std::size_t v = first_vertex[c];  // index of the next run head
     for (std::size_t i = c * kChunk, end = std::min(n, i + kChunk); i < end; ++i) {
       if (is_head(i)) vertex_keys[v++] = key_of(packed[i]);
@@ -257,9 +256,7 @@ void weld_packed(std::vector<uint64_t>& corner_keys, const DenseEdgeKeys& dense,
                  const SparseField& field, float iso, TriangleMesh& mesh) {
   const std::size_t n = corner_keys.size();
   std::vector<uint64_t>& packed = corner_keys;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) packed[i] = (dense.dense(packed[i]) << index_bits) | i;
-  });
+  for_each_index(n, [&](std::size_t i) { packed[i] = (dense.dense(packed[i]) << index_bits) | i; });
   std::vector<Triangle> triangles;
   resize_populated(triangles, n / 3);
   const std::vector<uint64_t> vertex_keys = number_runs(packed, index_bits, dense.bits, corner_data(triangles));
@@ -293,17 +290,15 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
   std::vector<uint32_t> row_start(blocks * rows, 0);
   std::vector<uint8_t> before_in_row;
   resize_populated(before_in_row, blocks * cells);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t b = r.begin(); b != r.end(); ++b) {
-      if (m.block_crossings[b] == nullptr) continue;
-      for (std::size_t row = 0; row < rows; ++row) {
-        uint32_t count = 0;
-        for (int x = 0; x < n; ++x) {
-          before_in_row[b * cells + row * n + x] = uint8_t(count);
-          count += uint32_t(std::popcount(m.crossings(b, row * n + x)));
-        }
-        row_start[b * rows + row] = count;
+  for_each_index(blocks, [&](std::size_t b) {
+    if (m.block_crossings[b] == nullptr) return;
+    for (std::size_t row = 0; row < rows; ++row) {
+      uint32_t count = 0;
+      for (int x = 0; x < n; ++x) {
+        before_in_row[b * cells + row * n + x] = uint8_t(count);
+        count += uint32_t(std::popcount(m.crossings(b, row * n + x)));
       }
+      row_start[b * rows + row] = count;
     }
   });
   std::vector<std::size_t> slab_first{0};
@@ -312,14 +307,14 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
   slab_first.push_back(blocks);
   const std::size_t slabs = slab_first.size() - 1;
   std::vector<uint64_t> slab_start(slabs + 1, 0);
-  tbb::parallel_for(std::size_t(0), slabs, [&](std::size_t s) {
+  for_each_index(slabs, [&](std::size_t s) {
     uint64_t total = 0;
     for (std::size_t i = slab_first[s] * rows; i < slab_first[s + 1] * rows; ++i) total += row_start[i];
     slab_start[s + 1] = total;
   });
   for (std::size_t s = 0; s < slabs; ++s) slab_start[s + 1] += slab_start[s];
   check_vertex_count(slab_start.back());
-  tbb::parallel_for(std::size_t(0), slabs, [&](std::size_t s) {
+  for_each_index(slabs, [&](std::size_t s) {
     uint64_t next = slab_start[s];
     for (int z = 0; z < n; ++z)
       for (std::size_t g = slab_first[s], g_end; g < slab_first[s + 1]; g = g_end) {
@@ -442,10 +437,7 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
 void weld_searched(std::span<const uint64_t> corner_keys, const DenseEdgeKeys& dense, const SparseField& field,
                    float iso, TriangleMesh& mesh) {
   std::vector<uint64_t> sorted(corner_keys.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, corner_keys.size()),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) sorted[i] = dense.dense(corner_keys[i]);
-                    });
+  for_each_index(corner_keys.size(), [&](std::size_t i) { sorted[i] = dense.dense(corner_keys[i]); });
   radix_sort(sorted, 0, dense.bits);
   const std::vector<uint64_t> vertex_keys = unique_sorted(sorted);
   std::vector<uint64_t>().swap(sorted);
@@ -454,12 +446,10 @@ void weld_searched(std::span<const uint64_t> corner_keys, const DenseEdgeKeys& d
 
   const SortedKeyIndex index(vertex_keys);
   mesh.triangles.resize(corner_keys.size() / 3);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.triangles.size()),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t t = r.begin(); t != r.end(); ++t)
-                        for (int k = 0; k < 3; ++k)
-                          mesh.triangles[t][k] = uint32_t(index.find(dense.dense(corner_keys[3 * t + k])));
-                    });
+  for_each_chunk(mesh.triangles.size(), 1, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t t = begin; t != end; ++t)
+      for (int k = 0; k < 3; ++k) mesh.triangles[t][k] = uint32_t(index.find(dense.dense(corner_keys[3 * t + k])));
+  });
 }
 
 }  // namespace

@@ -1,9 +1,9 @@
 // meniscus — sparse distance field (Williams 2008; Edespong 2010 §3.2).
 #include "field/distance_field.hpp"
+#include "common/for_each.hpp"
 #include "field/distance_field_impl.hpp"
 
 #include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
@@ -47,30 +47,28 @@ bool band_blocks_dense(const HashGrid& grid, float band, float block_size, std::
   // a cell's blocks, 8 to 27 of them).
   if (double(nx) * double(ny) * double(nz) > 64.0 * double(cells.size())) return false;
   std::vector<uint8_t> marked(nx * ny * nz, 0);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 1024), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const BlockBox b = band_block_box(unpack_coords(cells[i]), c, band, block_size);
-      for (int32_t z = b.lo[2]; z <= b.hi[2]; ++z)
-        for (int32_t y = b.lo[1]; y <= b.hi[1]; ++y) {
-          uint8_t* row = marked.data() + (std::size_t(z - lo[2]) * ny + std::size_t(y - lo[1])) * nx;
-          // Neighbouring cells mark the same blocks from both threads: relaxed atomic stores of
-          // the same value (a plain store on x86), not a data race.
-          for (int32_t x = b.lo[0]; x <= b.hi[0]; ++x)
-            std::atomic_ref<uint8_t>(row[x - lo[0]]).store(1, std::memory_order_relaxed);
-        }
-    }
+  for_each_index(cells.size(), 1024, [&](std::size_t i) {
+    const BlockBox b = band_block_box(unpack_coords(cells[i]), c, band, block_size);
+    for (int32_t z = b.lo[2]; z <= b.hi[2]; ++z)
+      for (int32_t y = b.lo[1]; y <= b.hi[1]; ++y) {
+        uint8_t* row = marked.data() + (std::size_t(z - lo[2]) * ny + std::size_t(y - lo[1])) * nx;
+        // Neighbouring cells mark the same blocks from both threads: relaxed atomic stores of
+        // the same value (a plain store on x86), not a data race.
+        for (int32_t x = b.lo[0]; x <= b.hi[0]; ++x)
+          std::atomic_ref<uint8_t>(row[x - lo[0]]).store(1, std::memory_order_relaxed);
+      }
   });
   // Count per z-slab, then list each slab's marked blocks in (y, x) order at its offset.
   std::vector<std::size_t> offset(nz + 1, 0);
   const std::size_t slab = nx * ny;
-  tbb::parallel_for(std::size_t(0), nz, [&](std::size_t z) {
+  for_each_index(nz, [&](std::size_t z) {
     std::size_t count = 0;
     for (std::size_t i = z * slab; i < (z + 1) * slab; ++i) count += marked[i];
     offset[z + 1] = count;
   });
   for (std::size_t z = 0; z < nz; ++z) offset[z + 1] += offset[z];
   keys.resize(offset[nz]);
-  tbb::parallel_for(std::size_t(0), nz, [&](std::size_t z) {
+  for_each_index(nz, [&](std::size_t z) {
     std::size_t k = offset[z];
     for (std::size_t y = 0; y < ny; ++y)
       for (std::size_t x = 0; x < nx; ++x)
@@ -88,9 +86,9 @@ std::vector<uint64_t> band_blocks(const HashGrid& grid, const SampleLattice& lat
   const float c = grid.cell_size();
   if (std::vector<uint64_t> dense; band_blocks_dense(grid, band, block_size, dense)) return dense;
   tbb::enumerable_thread_specific<std::vector<uint64_t>> local;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 256), [&](const auto& r) {
+  for_each_chunk(cells.size(), 256, [&](std::size_t begin, std::size_t end) {
     auto& out = local.local();
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+    for (std::size_t i = begin; i != end; ++i) {
       const BlockBox b = band_block_box(unpack_coords(cells[i]), c, band, block_size);
       for (int32_t z = b.lo[2]; z <= b.hi[2]; ++z)
         for (int32_t y = b.lo[1]; y <= b.hi[1]; ++y)
@@ -207,9 +205,9 @@ SparseField distance_field(const HashGrid& grid, const SampleLattice& lattice, f
   const auto points = grid.sorted_points();
   const AxisOffsets offsets(lattice);
 
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, field.block_count(), 4), [&](const auto& r) {
+  for_each_chunk(field.block_count(), 4, [&](std::size_t begin, std::size_t end) {
     alignas(64) std::array<float, kBlockSamples> d2;
-    for (std::size_t b = r.begin(); b != r.end(); ++b) {
+    for (std::size_t b = begin; b != end; ++b) {
       d2.fill(band2);
       const Vec3i origin = field.block_origin(b);
       if (n == 4)

@@ -1,12 +1,12 @@
 // meniscus — kernel-sum fields (Blinn 1982; Müller et al. 2003; Zhu & Bridson 2005; Yu & Turk 2010).
 #include "field/kernel_field.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <utility>
+
+#include "common/for_each.hpp"
 
 namespace meniscus {
 
@@ -86,9 +86,9 @@ SparseField kernel_field(const KernelFieldInput& in, const SampleLattice& lattic
 
   // Each block scatters its particles into its samples' sums (kernel_impl.hpp has the per-sample
   // arithmetic, which the CUDA backend gathers).
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, field.block_count(), 2), [&](const auto& r) {
+  for_each_chunk(field.block_count(), 2, [&](std::size_t begin, std::size_t end) {
     std::array<KernelSum, kBlockSamples> sums;
-    for (std::size_t b = r.begin(); b != r.end(); ++b) {
+    for (std::size_t b = begin; b != end; ++b) {
       sums.fill(KernelSum{});
       const Vec3i origin = field.block_origin(b);
       for_particles_near_block(grid, lattice, origin, support, [&](uint32_t i) {

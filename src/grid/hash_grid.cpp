@@ -1,12 +1,11 @@
 // meniscus — uniform hashed grid (Edespong 2010 §3.1).
 #include "grid/hash_grid.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <bit>
 #include <fmt/format.h>
 
+#include "common/for_each.hpp"
 #include "common/radix_sort.hpp"
 #include "mesh/compact.hpp"
 #include "meniscus/errors.hpp"
@@ -38,11 +37,9 @@ HashGrid::HashGrid(std::span<const Vec3f> points, float cell_size) : cell_size_(
   const Vec3i first = cell_of(lo), last = cell_of(hi);  // cell_of is monotone on each axis
   const uint64_t nx = uint64_t(last.x - first.x) + 1, ny = uint64_t(last.y - first.y) + 1;
   std::vector<std::pair<uint64_t, uint32_t>> keyed(n);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const Vec3i c = cell_of(points[i]);
-      keyed[i] = {(uint64_t(c.z - first.z) * ny + uint64_t(c.y - first.y)) * nx + uint64_t(c.x - first.x), uint32_t(i)};
-    }
+  for_each_index(n, 4096, [&](std::size_t i) {
+    const Vec3i c = cell_of(points[i]);
+    keyed[i] = {(uint64_t(c.z - first.z) * ny + uint64_t(c.y - first.y)) * nx + uint64_t(c.x - first.x), uint32_t(i)};
   });
   const uint64_t nz = uint64_t(last.z - first.z) + 1;
   radix_sort_by(keyed, [](const std::pair<uint64_t, uint32_t>& k) { return k.first; }, 0,
@@ -50,11 +47,9 @@ HashGrid::HashGrid(std::span<const Vec3f> points, float cell_size) : cell_size_(
 
   sorted_.resize(n);
   order_.resize(n);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      order_[i] = keyed[i].second;
-      sorted_[i] = points[keyed[i].second];
-    }
+  for_each_index(n, 4096, [&](std::size_t i) {
+    order_[i] = keyed[i].second;
+    sorted_[i] = points[keyed[i].second];
   });
   // The cells' first points, found per chunk in parallel and listed in order.
   auto is_head = [&](std::size_t i) { return i == 0 || keyed[i].first != keyed[i - 1].first; };

@@ -2,9 +2,6 @@
 // parallel and in order (the void and blob removal, the weld's repeated-vertex triangles).
 #pragma once
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <atomic>
 #include <bit>
@@ -16,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "common/for_each.hpp"
 #include "common/huge_pages.hpp"
 #include "meniscus/mesh.hpp"
 
@@ -32,7 +30,7 @@ template <class Set>
 std::size_t chunk_offsets(std::size_t n, Set&& set, std::vector<std::size_t>& offsets) {
   const std::size_t chunks = (n + kCompactChunk - 1) / kCompactChunk;
   offsets.assign(chunks + 1, 0);
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+  for_each_index(chunks, [&](std::size_t c) {
     std::size_t count = 0;
     for (std::size_t i = c * kCompactChunk, end = std::min(n, i + kCompactChunk); i < end; ++i) count += set(i) ? 1 : 0;
     offsets[c + 1] = count;
@@ -45,7 +43,7 @@ std::size_t chunk_offsets(std::size_t n, Set&& set, std::vector<std::size_t>& of
 /// parallel over the chunks of `offsets` (as chunk_offsets made them for the same n and set).
 template <class Set, class F>
 void for_each_set(std::size_t n, Set&& set, const std::vector<std::size_t>& offsets, F&& f) {
-  tbb::parallel_for(std::size_t(0), offsets.size() - 1, [&](std::size_t c) {
+  for_each_index(offsets.size() - 1, [&](std::size_t c) {
     std::size_t rank = offsets[c];
     for (std::size_t i = c * kCompactChunk, end = std::min(n, i + kCompactChunk); i < end; ++i)
       if (set(i)) f(i, rank++);
@@ -73,7 +71,7 @@ void compact_in_place(std::vector<T>& values, std::size_t per, const std::vector
   if (values.empty()) return;
   const std::size_t chunks = offsets.size() - 1;
   const auto at = [&](std::size_t i) { return values.begin() + std::ptrdiff_t(i * per); };
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+  for_each_index(chunks, [&](std::size_t c) {
     std::size_t out = c * kCompactChunk;
     for (std::size_t i = c * kCompactChunk, end = std::min(flags.size(), i + kCompactChunk); i < end; ++i)
       if (flags[i]) {
@@ -100,8 +98,8 @@ inline void compact_vertices(TriangleMesh& mesh, const std::vector<uint8_t>& use
   compact_in_place(mesh.vertices, 1, used, offsets);
   compact_in_place(mesh.normals, 1, used, offsets);
   for (Attribute& a : mesh.attributes) compact_in_place(a.values, std::size_t(a.components), used, offsets);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.triangles.size(), 4096), [&](const auto& r) {
-    for (std::size_t t = r.begin(); t != r.end(); ++t)
+  for_each_chunk(mesh.triangles.size(), 4096, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t t = begin; t != end; ++t)
       for (uint32_t& v : mesh.triangles[t]) v = remap[v];
   });
 }
@@ -141,11 +139,11 @@ void remove_sorted(std::vector<T>& values, std::size_t per, std::span<const uint
   for (std::size_t c = 0; c < chunks; ++c) tail[c + 1] = tail[c] + (c + 1 < chunks ? before[c + 1] : 0);
   std::vector<T> tails(tail[chunks] * per);
   const auto group = [&](std::size_t i) { return values.begin() + std::ptrdiff_t(i * per); };
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+  for_each_index(chunks, [&](std::size_t c) {
     const std::size_t count = tail[c + 1] - tail[c];
     std::copy(group(first(c + 1) - count), group(first(c + 1)), tails.begin() + std::ptrdiff_t(tail[c] * per));
   });
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+  for_each_index(chunks, [&](std::size_t c) {
     const std::size_t end = first(c + 1), tail_begin = end - (tail[c + 1] - tail[c]);
     // The groups from `from` on, up to `to`, land from `out` on (from the copies for the tail).
     // In pieces of kPiece groups, each mapped while it is still in the cache from its copy (a
@@ -208,8 +206,8 @@ std::size_t keep_triangles(TriangleMesh& mesh, Keep&& keep) {
   std::vector<uint8_t> kept, used;
   assign_populated(kept, nt, uint8_t(0));
   assign_populated(used, nv, uint8_t(0));
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nt, 4096), [&](const auto& r) {
-    for (std::size_t t = r.begin(); t != r.end(); ++t)
+  for_each_chunk(nt, 4096, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t t = begin; t != end; ++t)
       if (keep(mesh.triangles[t])) {
         kept[t] = 1;
         for (uint32_t v : mesh.triangles[t]) std::atomic_ref<uint8_t>(used[v]).store(1, std::memory_order_relaxed);

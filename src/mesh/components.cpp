@@ -1,14 +1,12 @@
 // meniscus — connected components of a triangle mesh.
 #include "mesh/components.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <atomic>
 #include <memory>
 #include <utility>
 
+#include "common/for_each.hpp"
 #include "common/huge_pages.hpp"
 #include "common/prefetch.hpp"
 #include "mesh/compact.hpp"
@@ -28,9 +26,7 @@ class ConcurrentForest {
  public:
   explicit ConcurrentForest(std::size_t n) : parent_(std::make_unique_for_overwrite<uint32_t[]>(n)) {
     advise_huge_pages(parent_.get(), n * sizeof(uint32_t));
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const auto& r) {
-      for (std::size_t i = r.begin(); i != r.end(); ++i) parent_[i] = uint32_t(i);
-    });
+    for_each_index(n, [&](std::size_t i) { parent_[i] = uint32_t(i); });
   }
   uint32_t find(uint32_t x) const {
     for (;;) {
@@ -68,22 +64,20 @@ std::vector<uint32_t> component_roots(std::size_t vertex_count, std::span<const 
   // Triangles of a watertight mesh that share a vertex share an edge, except at non-manifold
   // vertices, which the extraction does not produce: components by vertices are by edges.
   ConcurrentForest forest(vertex_count);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles.size(), 4096), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const Triangle& t = triangles[i];
-      // The second union starts from the first's root, not from t[1] again: one walk saved.
-      forest.unite(forest.unite(t[0], t[1]), t[2]);
-    }
+  for_each_index(triangles.size(), 4096, [&](std::size_t i) {
+    const Triangle& t = triangles[i];
+    // The second union starts from the first's root, not from t[1] again: one walk saved.
+    forest.unite(forest.unite(t[0], t[1]), t[2]);
   });
   std::vector<uint32_t> root;
   resize_huge(root, vertex_count);
   // A vertex's parent is never larger than the vertex (roots hook under smaller roots, halving
   // moves a vertex to an ancestor), so going up the range a parent within it already has its root:
   // one read instead of a walk (and of the walk's stores into lines the other threads read).
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertex_count), [&](const auto& r) {
-    for (std::size_t v = r.begin(); v != r.end(); ++v) {
+  for_each_chunk(vertex_count, 1, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t v = begin; v != end; ++v) {
       const uint32_t p = forest.parent(uint32_t(v));
-      root[v] = p == v ? p : p >= r.begin() ? root[p] : forest.find(p);
+      root[v] = p == v ? p : p >= begin ? root[p] : forest.find(p);
     }
   });
   return root;
@@ -104,7 +98,7 @@ MeshComponents mesh_components(const TriangleMesh& mesh) {
   // and the triangles themselves 2 KB ahead (common/prefetch.hpp)
   const std::size_t chunks = (nt + kChunk - 1) / kChunk;
   std::vector<std::vector<Run>> runs(chunks);
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t k) {
+  for_each_index(chunks, [&](std::size_t k) {
     auto& out = runs[k];
     for (std::size_t i = k * kChunk, end = std::min(nt, i + kChunk); i < end; ++i) {
       prefetch_stream(mesh.triangles.data(), i, end);
@@ -159,6 +153,5 @@ void drop_components(TriangleMesh& mesh, const MeshComponents& c, const std::vec
   vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
   drop_sorted(mesh, triangles, vertices);
 }
-
 
 }  // namespace meniscus

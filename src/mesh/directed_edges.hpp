@@ -2,14 +2,13 @@
 // them the other way), for the clip's cap and the decimation's border and manifold checks.
 #pragma once
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <cstdint>
 #include <vector>
 
+#include "common/for_each.hpp"
 #include "meniscus/mesh.hpp"
 
 namespace meniscus {
@@ -24,8 +23,8 @@ inline uint32_t edge_to(EdgeKey e) { return uint32_t(e); }
 /// The directed edges of `triangles` (three each, in their corners' order), sorted.
 inline std::vector<EdgeKey> sorted_directed_edges(const std::vector<Triangle>& triangles) {
   std::vector<EdgeKey> edges(3 * triangles.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles.size(), 4096), [&](const auto& r) {
-    for (std::size_t t = r.begin(); t != r.end(); ++t)
+  for_each_chunk(triangles.size(), 4096, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t t = begin; t != end; ++t)
       for (std::size_t k = 0; k < 3; ++k) edges[3 * t + k] = directed_edge(triangles[t][k], triangles[t][(k + 1) % 3]);
   });
   tbb::parallel_sort(edges.begin(), edges.end());

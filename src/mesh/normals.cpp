@@ -6,8 +6,6 @@
 #include "common/prefetch.hpp"
 #include "mesh/normals_impl.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cstdint>
 
@@ -51,7 +49,7 @@ std::vector<Vec3f> vertex_normals(std::span<const Vec3f> x, std::span<const Tria
   assign_huge(n, x.size(), Vec3f{0, 0, 0});
   const std::size_t nt = triangles.size(), chunks = (nt + kNormalChunk - 1) / kNormalChunk;
   std::vector<uint32_t> lo(chunks, UINT32_MAX), hi(chunks, 0);
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+  for_each_index(chunks, [&](std::size_t c) {
     uint32_t l = UINT32_MAX, h = 0;
     for (std::size_t f = c * kNormalChunk, end = std::min(nt, f + kNormalChunk); f < end; ++f) {
       prefetch_stream(triangles.data(), f, nt);
@@ -86,11 +84,10 @@ std::vector<Vec3f> vertex_normals(std::span<const Vec3f> x, std::span<const Tria
     }
   };
   for (std::size_t wave = 0; wave < std::min(stride, chunks); ++wave)
-    tbb::parallel_for(std::size_t(0), (chunks - wave + stride - 1) / stride,
-                      [&](std::size_t k) { scatter(wave + k * stride); });
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n.size(), 4096), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      prefetch_stream_write(n.data(), i, r.end());
+    for_each_index((chunks - wave + stride - 1) / stride, [&](std::size_t k) { scatter(wave + k * stride); });
+  for_each_chunk(n.size(), 4096, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i != end; ++i) {
+      prefetch_stream_write(n.data(), i, end);
       n[i] = normalized(n[i]);
     }
   });

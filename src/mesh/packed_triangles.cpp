@@ -1,10 +1,10 @@
 // meniscus — triangle lists packed into variable-length integers.
 #include "mesh/packed_triangles.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <numeric>
+
+#include "common/for_each.hpp"
 
 namespace meniscus {
 
@@ -44,7 +44,7 @@ void PackedTriangles::pack(std::vector<Triangle>& triangles) {
   count_ = triangles.size();
   const std::size_t blocks = (count_ + kBlock - 1) / kBlock;
   block_begin_.assign(blocks + 1, 0);
-  tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
+  for_each_index(blocks, [&](std::size_t b) {
     const auto [first, last] = block_range(b);
     std::size_t bytes = 0;
     uint32_t previous = 0;
@@ -57,7 +57,7 @@ void PackedTriangles::pack(std::vector<Triangle>& triangles) {
   std::inclusive_scan(block_begin_.begin(), block_begin_.end(), block_begin_.begin());
   bytes_.clear();
   resize_populated(bytes_, block_begin_.back());
-  tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
+  for_each_index(blocks, [&](std::size_t b) {
     const auto [first, last] = block_range(b);
     uint8_t* out = bytes_.data() + block_begin_[b];
     uint32_t previous = 0;
@@ -73,7 +73,7 @@ void PackedTriangles::pack(std::vector<Triangle>& triangles) {
 void PackedTriangles::unpack(std::vector<Triangle>& triangles) {
   triangles.clear();
   resize_populated(triangles, count_);
-  tbb::parallel_for(std::size_t(0), block_count(), [&](std::size_t b) {
+  for_each_index(block_count(), [&](std::size_t b) {
     std::size_t k = block_range(b).first;
     decode_block(b, [&](const Triangle& t) { triangles[k++] = t; });
   });

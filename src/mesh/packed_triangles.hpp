@@ -2,14 +2,13 @@
 // smoothing sweeps never read the triangles once the operator's corner lists are built).
 #pragma once
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <utility>
 #include <vector>
 
+#include "common/for_each.hpp"
 #include "common/huge_pages.hpp"
 #include "meniscus/mesh.hpp"
 
@@ -86,7 +85,7 @@ template <class Keep, class Map, class Search>
 std::vector<Triangle> PackedTriangles::select(Keep&& keep, Map&& map, Search&& search) const {
   const std::size_t blocks = block_count();
   std::vector<std::size_t> start(blocks + 1, 0);
-  tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
+  for_each_index(blocks, [&](std::size_t b) {
     std::size_t n = 0;
     if (search(b)) decode_block(b, [&](const Triangle& t) { n += keep(t) ? 1 : 0; });
     start[b + 1] = n;
@@ -94,7 +93,7 @@ std::vector<Triangle> PackedTriangles::select(Keep&& keep, Map&& map, Search&& s
   for (std::size_t b = 0; b < blocks; ++b) start[b + 1] += start[b];
   std::vector<Triangle> out;
   resize_huge(out, start[blocks]);
-  tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
+  for_each_index(blocks, [&](std::size_t b) {
     if (start[b + 1] == start[b]) return;
     std::size_t k = start[b];
     decode_block(b, [&](const Triangle& t) {

@@ -2,12 +2,11 @@
 // CPU mesh pipelines, e.g. Karras 2012 for BVH construction).
 #include "mesh/vertex_order.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <bit>
 #include <limits>
 
+#include "common/for_each.hpp"
 #include "common/huge_pages.hpp"
 #include "common/radix_sort.hpp"
 #include "system/memory_scope.hpp"
@@ -24,7 +23,7 @@ void permute(std::vector<T>& values, std::size_t n, OldOfNew&& old_of_new) {
   // The reordered arrays are what the smoothing and the normals read at random: huge pages.
   std::vector<T> out;
   resize_huge(out, n);
-  tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) { out[i] = values[old_of_new(i)]; });
+  for_each_index(n, [&](std::size_t i) { out[i] = values[old_of_new(i)]; });
   values.swap(out);
 }
 
@@ -38,7 +37,7 @@ void reorder_vertices_spatially(TriangleMesh& mesh, float cell) {
 
   // Key: 30 Morton bits above the 32-bit old index (the payload keeps the sort stable).
   std::vector<uint64_t> keys(nv);
-  tbb::parallel_for(std::size_t(0), nv, [&](std::size_t i) { keys[i] = uint64_t(morton_key(x[i], inv_cell)) << 32 | i; });
+  for_each_index(nv, [&](std::size_t i) { keys[i] = uint64_t(morton_key(x[i], inv_cell)) << 32 | i; });
   radix_sort(keys, 32, 62);
   // The sorted keys' payloads are the old indices in the new order: the permutation, without an
   // array of its own (on splash 1M the arrays of this function set the peak of the whole run).
@@ -50,19 +49,19 @@ void reorder_vertices_spatially(TriangleMesh& mesh, float cell) {
       if (a.values.empty()) continue;
       const std::size_t k = std::size_t(a.components);
       std::vector<float> out(a.values.size());
-      tbb::parallel_for(std::size_t(0), nv, [&](std::size_t i) {
+      for_each_index(nv, [&](std::size_t i) {
         std::copy_n(a.values.begin() + std::ptrdiff_t(old_of_new(i) * k), k, out.begin() + std::ptrdiff_t(i * k));
       });
       a.values.swap(out);
     }
   }
   std::vector<uint32_t> new_of_old(nv);
-  tbb::parallel_for(std::size_t(0), nv, [&](std::size_t i) { new_of_old[uint32_t(keys[i])] = uint32_t(i); });
+  for_each_index(nv, [&](std::size_t i) { new_of_old[uint32_t(keys[i])] = uint32_t(i); });
   std::vector<uint64_t>().swap(keys);
 
   // The triangles renumbered in place, then sorted (stably: ties keep their old order) by their
   // smallest new vertex — the triangles themselves, with one scratch copy and no keys.
-  tbb::parallel_for(std::size_t(0), mesh.triangles.size(), [&](std::size_t t) {
+  for_each_index(mesh.triangles.size(), [&](std::size_t t) {
     for (uint32_t& v : mesh.triangles[t]) v = new_of_old[v];
   });
   std::vector<uint32_t>().swap(new_of_old);

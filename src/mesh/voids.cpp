@@ -1,11 +1,9 @@
 // meniscus — small interior void removal.
 #include "mesh/voids.hpp"
 
+#include "common/for_each.hpp"
 #include "mesh/components.hpp"
 #include "mesh/ray_parity_impl.hpp"
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <span>
@@ -39,8 +37,8 @@ std::size_t remove_unsupported_blobs(TriangleMesh& mesh, const HashGrid& particl
   const std::vector<uint32_t>& triangles = own.triangles;
 
   std::vector<uint8_t> empty(candidates.size(), 0);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, candidates.size(), 16), [&](const auto& r) {
-    for (std::size_t k = r.begin(); k != r.end(); ++k)
+  for_each_chunk(candidates.size(), 16, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t k = begin; k != end; ++k)
       empty[k] = candidates[k]->volume <= min_volume ||
                  !encloses_a_point(particles, mesh.triangles.data()->data(), triangles.data() + start[k],
                                    start[k + 1] - start[k], mesh.vertices.data());

@@ -1,6 +1,5 @@
 // meniscus — the inputs checked and the parameters resolved: the spacing estimate, the other
 // frame-wide estimates (rest density, reference speed), what 0 derives, and R_local.
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
@@ -8,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "common/for_each.hpp"
 #include "field/anisotropy.hpp"
 #include "field/kernel_impl.hpp"
 #include "grid/key_index.hpp"
@@ -156,7 +156,7 @@ double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::s
   // part within that bound. One part holding all: the nearest of the whole frame at once.
   std::vector<float> nearest(samples, INFINITY);
   const float widest = 2.0f * float(diag) + cell;
-  tbb::parallel_for(std::size_t(0), samples, [&](std::size_t s) {
+  for_each_index(samples, [&](std::size_t s) {
     if (!held_index(s)) return;
     const Vec3f p = sample(s);
     for (float r = cell; r <= widest; r *= 2.0f) {
@@ -172,7 +172,7 @@ double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::s
   });
   reduce.min(nearest);
   if (n > held) {  // the other parts, within each sample's bound
-    tbb::parallel_for(std::size_t(0), samples, [&](std::size_t s) {
+    for_each_index(samples, [&](std::size_t s) {
       const float bound = nearest[s];
       const float r = std::isfinite(bound) ? std::sqrt(bound) * (1 + 1e-5f) : widest;
       float best = bound;
@@ -196,7 +196,7 @@ double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::s
   const float radius = 2.5f * median_nn;
   const HashGrid density_grid(part.positions, radius);
   std::vector<uint64_t> counts(samples, 0);
-  tbb::parallel_for(std::size_t(0), samples, [&](std::size_t s) {
+  for_each_index(samples, [&](std::size_t s) {
     std::size_t count = 0;
     density_grid.for_each_within(sample(s), radius, [&](uint32_t, float) { ++count; });
     counts[s] = count;

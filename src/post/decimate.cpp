@@ -2,8 +2,6 @@
 #include "post/decimate.hpp"
 
 #include <meshoptimizer.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
@@ -15,6 +13,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "common/for_each.hpp"
 #include "mesh/compact.hpp"
 #include "mesh/components.hpp"
 #include "mesh/directed_edges.hpp"
@@ -175,28 +174,24 @@ Verdict check(const Patch& patch, Measured& after_measured, const Reference& ful
     for (std::size_t i = 0; i < nv; ++i)
       first_of[roots[i].second] = (i > 0 && roots[i - 1].first == roots[i].first) ? first_of[roots[i - 1].second] : roots[i].second;
   }
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, after.size(), 4096), [&](const auto& r) {
-    for (std::size_t t = r.begin(); t != r.end(); ++t) {
-      left[first_of[after[t][0]]].fetch_add(1, std::memory_order_relaxed);
-      for (uint32_t v : after[t]) used[v].store(1, std::memory_order_relaxed);
-    }
+  for_each_index(after.size(), 4096, [&](std::size_t t) {
+    left[first_of[after[t][0]]].fetch_add(1, std::memory_order_relaxed);
+    for (uint32_t v : after[t]) used[v].store(1, std::memory_order_relaxed);
   });
   // Closed and manifold: each directed edge once, with its reverse (or an open edge of the input).
   const std::vector<EdgeKey> edges = sorted_directed_edges(after);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, edges.size(), 4096), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const EdgeKey e = edges[i];
-      if ((i + 1 < edges.size() && edges[i + 1] == e) || (!contains(edges, reversed(e)) && !contains(patch.borders, e))) {
-        bad[edge_from(e)].store(1, std::memory_order_relaxed);
-        bad[edge_to(e)].store(1, std::memory_order_relaxed);
-      }
+  for_each_index(edges.size(), 4096, [&](std::size_t i) {
+    const EdgeKey e = edges[i];
+    if ((i + 1 < edges.size() && edges[i + 1] == e) || (!contains(edges, reversed(e)) && !contains(patch.borders, e))) {
+      bad[edge_from(e)].store(1, std::memory_order_relaxed);
+      bad[edge_to(e)].store(1, std::memory_order_relaxed);
     }
   });
   // Manifold vertices: the triangles around each vertex form one fan, where they did before (a
   // collapse can pinch two sheets together at a vertex while every edge stays shared by two).
   const Incidence around(nv, after);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const auto& r) {
-    for (std::size_t v = r.begin(); v != r.end(); ++v)
+  for_each_chunk(nv, 4096, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t v = begin; v != end; ++v)
       if (patch.interior[v] && patch.fan_before[v] && !single_fan(uint32_t(v), around, after))
         bad[v].store(1, std::memory_order_relaxed);
   });
@@ -212,35 +207,31 @@ Verdict check(const Patch& patch, Measured& after_measured, const Reference& ful
     double old = worst.load(std::memory_order_relaxed);
     while (distance > old && !worst.compare_exchange_weak(old, distance, std::memory_order_relaxed)) {}
   };
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, before.size(), 1024), [&](const auto& r) {
-    for (std::size_t t = r.begin(); t != r.end(); ++t) {
-      bool changed = false;
-      for (uint32_t v : before[t]) {
-        if (left[first_of[v]].load(std::memory_order_relaxed) == 0) bad[v].store(1, std::memory_order_relaxed);
-        if (used[v].load(std::memory_order_relaxed)) continue;
-        // A vertex of several triangles is measured by each: the same distance, harmless.
-        measure(v, simplified.closest(x[v], reach).distance);
-        changed = true;
-      }
-      if (changed) {  // and the middle of a triangle that went
-        const Vec3f c = (x[before[t][0]] + x[before[t][1]] + x[before[t][2]]) * (1.0f / 3);
-        const float distance = simplified.closest(c, reach).distance;
-        for (uint32_t v : before[t]) measure(v, distance);
-      }
+  for_each_index(before.size(), 1024, [&](std::size_t t) {
+    bool changed = false;
+    for (uint32_t v : before[t]) {
+      if (left[first_of[v]].load(std::memory_order_relaxed) == 0) bad[v].store(1, std::memory_order_relaxed);
+      if (used[v].load(std::memory_order_relaxed)) continue;
+      // A vertex of several triangles is measured by each: the same distance, harmless.
+      measure(v, simplified.closest(x[v], reach).distance);
+      changed = true;
+    }
+    if (changed) {  // and the middle of a triangle that went
+      const Vec3f c = (x[before[t][0]] + x[before[t][1]] + x[before[t][2]]) * (1.0f / 3);
+      const float distance = simplified.closest(c, reach).distance;
+      for (uint32_t v : before[t]) measure(v, distance);
     }
   });
   // The vertices an earlier pass removed, against the surface that replaces the one they measured.
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, patch.gone.size(), 1024), [&](const auto& r) {
-    for (std::size_t g = r.begin(); g != r.end(); ++g) {
-      const float distance = simplified.closest(patch.gone[g], reach).distance;
-      for (uint32_t v : before[patch.gone_near[g]]) measure(v, distance);
-    }
+  for_each_index(patch.gone.size(), 1024, [&](std::size_t g) {
+    const float distance = simplified.closest(patch.gone[g], reach).distance;
+    for (uint32_t v : before[patch.gone_near[g]]) measure(v, distance);
   });
   // A new triangle's distance to the full surface is its own: the rounds and passes before may know it.
   std::vector<float>& far = after_measured.far;
   far.resize(after.size(), NAN);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, after.size(), 256), [&](const auto& r) {
-    for (std::size_t t = r.begin(); t != r.end(); ++t)
+  for_each_chunk(after.size(), 256, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t t = begin; t != end; ++t)
       if (std::isnan(far[t]))
         far[t] = farthest(x[after[t][0]], x[after[t][1]], x[after[t][2]], full, float(kMargin * max_error));
   });
@@ -327,7 +318,7 @@ Measured simplify_patches(const std::vector<Vec3f>& x, const std::vector<uint32_
   // Each base triangle's cell; the patches in the cells' order (the result does not depend on
   // the thread count).
   std::vector<std::pair<std::array<int64_t, 3>, uint32_t>> cells(base.size());
-  tbb::parallel_for(std::size_t(0), base.size(), [&](std::size_t t) {
+  for_each_index(base.size(), [&](std::size_t t) {
     const Vec3f c = (x[base[t][0]] + x[base[t][1]] + x[base[t][2]]) * (1.0f / 3);
     for (int a = 0; a < 3; ++a) cells[t].first[std::size_t(a)] = int64_t(std::floor((double(c[a]) + offset) / side));
     cells[t].second = uint32_t(t);
@@ -342,7 +333,7 @@ Measured simplify_patches(const std::vector<Vec3f>& x, const std::vector<uint32_
   }
   starts.push_back(cells.size());
   std::vector<Patch> patches(starts.size() - 1);
-  tbb::parallel_for(std::size_t(0), patches.size(), [&](std::size_t p) {
+  for_each_index(patches.size(), [&](std::size_t p) {
     Measured triangles;
     for (std::size_t i = starts[p]; i < starts[p + 1]; ++i) {
       triangles.triangles.push_back(base[cells[i].second]);
@@ -372,9 +363,8 @@ Measured simplify_patches(const std::vector<Vec3f>& x, const std::vector<uint32_
     }
     const TriangleBvh nearest(x, base);
     std::vector<uint32_t> near(gone.size());
-    tbb::parallel_for(std::size_t(0), gone.size(), [&](std::size_t g) {
-      near[g] = nearest.closest(gone[g], float(2 * max_error)).triangle;
-    });
+    for_each_index(gone.size(),
+                   [&](std::size_t g) { near[g] = nearest.closest(gone[g], float(2 * max_error)).triangle; });
     for (std::size_t g = 0; g < gone.size(); ++g) {
       if (near[g] == UINT32_MAX) continue;  // farther than the bound: the final check sees it
       Patch& patch = patches[patch_of[near[g]]];
@@ -384,7 +374,7 @@ Measured simplify_patches(const std::vector<Vec3f>& x, const std::vector<uint32_
   }
   std::vector<Measured> results(patches.size());
   std::mutex lock;
-  tbb::parallel_for(std::size_t(0), patches.size(), [&](std::size_t p) {
+  for_each_index(patches.size(), [&](std::size_t p) {
     Patch& patch = patches[p];
     prepare(patch, incident);
     results[p] = simplify_patch(patch, full, max_error, target, outcome, lock);

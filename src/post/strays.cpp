@@ -1,13 +1,11 @@
 // meniscus — strays (post/strays.hpp): components weighed by the particles they enclose.
 #include "post/strays.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <atomic>
 #include <vector>
 
+#include "common/for_each.hpp"
 #include "grid/hash_grid.hpp"
 #include "mesh/components.hpp"
 #include "mesh/normals.hpp"
@@ -26,17 +24,16 @@ std::size_t remove_components_enclosing_few(TriangleMesh& mesh, std::span<const 
   // component has no vertex near and is not counted; the large component has enough near its skin).
   const HashGrid vertices(mesh.vertices, reach);
   std::vector<std::atomic<uint32_t>> enclosed(c.components.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles.size(), 4096), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const HashGrid::Nearest n = vertices.nearest(particles[i], reach);
-      if (n.index == kNotFound) continue;
-      const uint32_t v = vertices.order()[n.index];
-      if (dot(particles[i] - mesh.vertices[v], normals[v]) > 0) continue;  // outside its nearest surface
-      const uint32_t root = c.root[v];
-      const auto k = std::lower_bound(c.components.begin(), c.components.end(), root,
-                                      [](const Component& a, uint32_t b) { return a.root < b; });
-      if (k != c.components.end() && k->root == root) enclosed[std::size_t(k - c.components.begin())].fetch_add(1, std::memory_order_relaxed);
-    }
+  for_each_index(particles.size(), 4096, [&](std::size_t i) {
+    const HashGrid::Nearest n = vertices.nearest(particles[i], reach);
+    if (n.index == kNotFound) return;
+    const uint32_t v = vertices.order()[n.index];
+    if (dot(particles[i] - mesh.vertices[v], normals[v]) > 0) return;  // outside its nearest surface
+    const uint32_t root = c.root[v];
+    const auto k = std::lower_bound(c.components.begin(), c.components.end(), root,
+                                    [](const Component& a, uint32_t b) { return a.root < b; });
+    if (k != c.components.end() && k->root == root)
+      enclosed[std::size_t(k - c.components.begin())].fetch_add(1, std::memory_order_relaxed);
   });
   std::vector<uint32_t> strays;
   for (std::size_t k = 0; k < c.components.size(); ++k)

@@ -2,7 +2,6 @@
 // triangles (Ericson 2005 §5.1.5) found through Embree's BVH (mesh/triangle_bvh.hpp).
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
@@ -10,6 +9,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "common/for_each.hpp"
 #include "meniscus/quality.hpp"
 #include "mesh/compact.hpp"
 #include "mesh/triangle_bvh.hpp"
@@ -72,15 +72,15 @@ SurfaceDistanceReport distance_to_surface(std::span<const Vec3f> points, const T
   const TriangleBvh bvh(surface.vertices, searched);
   std::vector<float> dist(points.size());
   std::atomic<std::size_t> tests{0}, beyond{0};
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 1024), [&](const auto& r) {
+  for_each_chunk(points.size(), 1024, [&](std::size_t begin, std::size_t end) {
     std::size_t t = 0, b = 0;
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+    for (std::size_t i = begin; i != end; ++i) {
       // Warm start: the distance to a surface changes by at most the step between two points, so
       // the previous point's distance plus the step bounds this one's (with a little slack for
       // rounding). The query starts at that radius instead of the cap; our vertices are in cell
       // order, so the step is usually a fraction of the spacing.
       float start = reach;
-      if (i != r.begin() && dist[i - 1] < reach)
+      if (i != begin && dist[i - 1] < reach)
         start = std::min(reach, (dist[i - 1] + length(points[i] - points[i - 1])) * (1 + 1e-5f) + 1e-30f);
       TriangleBvh::Closest c = bvh.closest(points[i], start);
       if (c.triangle == UINT32_MAX && start < reach) {  // only when rounding beat the slack

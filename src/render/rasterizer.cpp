@@ -15,9 +15,8 @@
 #include <vector>
 
 #include <fmt/format.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
+#include "common/for_each.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/render.hpp"
 
@@ -231,7 +230,7 @@ TileBins bin_to_tiles(std::size_t count, const TileGrid& grid, const SampleRectO
 
   std::vector<TileRect> rects(count);
   std::vector<std::size_t> cursors(chunks * tiles, 0);
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t k) {
+  for_each_index(chunks, [&](std::size_t k) {
     std::size_t* counts = &cursors[k * tiles];
     for (std::size_t i = k * chunk_size, end = std::min(count, i + chunk_size); i < end; ++i) {
       const SampleRect s = sample_rect_of(i);
@@ -257,7 +256,7 @@ TileBins bin_to_tiles(std::size_t count, const TileGrid& grid, const SampleRectO
   bins.begin[tiles] = total;
   bins.items.resize(total);
 
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t k) {
+  for_each_index(chunks, [&](std::size_t k) {
     std::size_t* cursor = &cursors[k * tiles];
     for (std::size_t i = k * chunk_size, end = std::min(count, i + chunk_size); i < end; ++i) {
       const TileRect r = rects[i];
@@ -541,8 +540,8 @@ std::vector<Vec3f> vertex_colors(const TriangleMesh& mesh, const RenderOptions& 
   const std::vector<float>& values = attribute->values;
   std::vector<Vec3f> colors(n);
   if (mapping == ColorMapping::rgb) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& range) {
-      for (std::size_t i = range.begin(); i < range.end(); ++i)
+    for_each_chunk(n, 4096, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i)
         colors[i] = srgb_to_linear(Vec3f{values[3 * i], values[3 * i + 1], values[3 * i + 2]});
     });
     return colors;
@@ -551,8 +550,8 @@ std::vector<Vec3f> vertex_colors(const TriangleMesh& mesh, const RenderOptions& 
                                                          : color_value_range(*attribute).value_or(std::array{0.0f, 0.0f});
   const float lo = range[0], hi = range[1];
   const float scale = hi > lo ? 1.0f / (hi - lo) : 0.0f;  // constant attribute: middle of the map
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& block) {
-    for (std::size_t i = block.begin(); i < block.end(); ++i) {
+  for_each_chunk(n, 4096, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
       const float v = mapped_value(*attribute, i);
       const float t = !std::isfinite(v) ? 0.0f : (scale > 0 ? (v - lo) * scale : 0.5f);
       colors[i] = srgb_to_linear(viridis(t));
@@ -692,28 +691,25 @@ Image render_mesh(const TriangleMesh& mesh, const RenderOptions& options) {
   const float near = 1e-4f * length(camera.eye - camera.target);
 
   std::vector<ScreenVertex> screen(mesh.vertices.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, screen.size(), 4096),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      for (std::size_t i = range.begin(); i < range.end(); ++i) {
-                        if (!is_finite(mesh.vertices[i])) continue;
-                        const Vec3f s = project(camera, mesh.vertices[i]);
-                        if (!(s.z > near && std::abs(s.x) < kGuardBand && std::abs(s.y) < kGuardBand)) continue;
-                        screen[i] = {static_cast<int32_t>(std::lround(s.x * float(kSubpixel))),
-                                     static_cast<int32_t>(std::lround(s.y * float(kSubpixel))), 1.0f / s.z};
-                      }
-                    });
+  for_each_chunk(screen.size(), 4096, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      if (!is_finite(mesh.vertices[i])) continue;
+      const Vec3f s = project(camera, mesh.vertices[i]);
+      if (!(s.z > near && std::abs(s.x) < kGuardBand && std::abs(s.y) < kGuardBand)) continue;
+      screen[i] = {static_cast<int32_t>(std::lround(s.x * float(kSubpixel))),
+                   static_cast<int32_t>(std::lround(s.y * float(kSubpixel))), 1.0f / s.z};
+    }
+  });
 
   const float particle_radius = options.particle_radius_pixels * float(kSupersample);
   std::vector<ScreenParticle> particles(particle_set.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles.size(), 4096),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      for (std::size_t i = range.begin(); i < range.end(); ++i) {
-                        if (!is_finite(particle_set.positions[i])) continue;
-                        const Vec3f s = project(camera, particle_set.positions[i]);
-                        if (s.z > near && std::abs(s.x) < kGuardBand && std::abs(s.y) < kGuardBand)
-                          particles[i] = {s.x, s.y, s.z};
-                      }
-                    });
+  for_each_chunk(particles.size(), 4096, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      if (!is_finite(particle_set.positions[i])) continue;
+      const Vec3f s = project(camera, particle_set.positions[i]);
+      if (s.z > near && std::abs(s.x) < kGuardBand && std::abs(s.y) < kGuardBand) particles[i] = {s.x, s.y, s.z};
+    }
+  });
 
   const TileGrid grid{(width + kTileSize - 1) / kTileSize, (height + kTileSize - 1) / kTileSize};
   const TileBins triangle_bins = bin_to_tiles(mesh.triangles.size(), grid, [&](std::size_t i) {
@@ -726,22 +722,21 @@ Image render_mesh(const TriangleMesh& mesh, const RenderOptions& options) {
 
   VisibilityBuffer buffer(width, height);
   const float world_per_sample = 1.0f / camera.focal;  // world size of one sample at unit depth
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, grid.count(), 1), [&](const tbb::blocked_range<std::size_t>& range) {
-        for (std::size_t tile = range.begin(); tile < range.end(); ++tile) {
-          const SampleRect samples = grid.samples_of(tile, width, height);
-          buffer.clear(samples);
-          for (std::size_t k = triangle_bins.begin[tile]; k < triangle_bins.begin[tile + 1]; ++k) {
-            const uint32_t id = triangle_bins.items[k];
-            const Triangle& t = mesh.triangles[id];
-            rasterize_triangle(screen[t[0]], screen[t[1]], screen[t[2]], id, samples, buffer);
-          }
-          for (std::size_t k = particle_bins.begin[tile]; k < particle_bins.begin[tile + 1]; ++k) {
-            const uint32_t id = particle_bins.items[k];
-            rasterize_particle(particles[id], id | kParticleBit, particle_radius, world_per_sample, samples, buffer);
-          }
-        }
-      });
+  for_each_chunk(grid.count(), 1, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t tile = begin; tile < end; ++tile) {
+      const SampleRect samples = grid.samples_of(tile, width, height);
+      buffer.clear(samples);
+      for (std::size_t k = triangle_bins.begin[tile]; k < triangle_bins.begin[tile + 1]; ++k) {
+        const uint32_t id = triangle_bins.items[k];
+        const Triangle& t = mesh.triangles[id];
+        rasterize_triangle(screen[t[0]], screen[t[1]], screen[t[2]], id, samples, buffer);
+      }
+      for (std::size_t k = particle_bins.begin[tile]; k < particle_bins.begin[tile + 1]; ++k) {
+        const uint32_t id = particle_bins.items[k];
+        rasterize_particle(particles[id], id | kParticleBit, particle_radius, world_per_sample, samples, buffer);
+      }
+    }
+  });
 
   const std::vector<Vec3f> colors = vertex_colors(mesh, options);
   const Scene scene{mesh,
@@ -770,41 +765,40 @@ Image render_mesh(const TriangleMesh& mesh, const RenderOptions& options) {
   image.width = options.width;
   image.height = options.height;
   image.rgb.resize(std::size_t(image.width) * std::size_t(image.height) * 3);
-  tbb::parallel_for(tbb::blocked_range<int>(0, image.height, 4), [&](const tbb::blocked_range<int>& rows) {
-    for (int py = rows.begin(); py < rows.end(); ++py) {
-      const int sy = 2 * py;
-      const Vec3f row_background = (background[std::size_t(sy)] + background[std::size_t(sy + 1)]) * 0.5f;
-      const std::array<uint8_t, 3> background_bytes = {to_byte(row_background.x), to_byte(row_background.y),
-                                                       to_byte(row_background.z)};
-      uint8_t* out = &image.rgb[std::size_t(py) * std::size_t(image.width) * 3];
-      for (int px = 0; px < image.width; ++px, out += 3) {
-        const int sx = 2 * px;
-        const std::array<uint32_t, 4> ids = {
-            buffer.primitive[buffer.index(sx, sy)], buffer.primitive[buffer.index(sx + 1, sy)],
-            buffer.primitive[buffer.index(sx, sy + 1)], buffer.primitive[buffer.index(sx + 1, sy + 1)]};
-        const bool uniform = ids[0] == ids[1] && ids[0] == ids[2] && ids[0] == ids[3];
-        if (uniform && ids[0] == kNoPrimitive) {
-          std::copy(background_bytes.begin(), background_bytes.end(), out);
-          continue;
-        }
-        Vec3f color;
-        if (uniform) {
-          color = shade_primitive(scene, ids[0], int64_t(sx + 1) * kSubpixel, int64_t(sy + 1) * kSubpixel);
-        } else {
-          Vec3f sum{0, 0, 0};
-          for (int k = 0; k < 4; ++k) {
-            const int x = sx + (k & 1), y = sy + (k >> 1);
-            sum += ids[std::size_t(k)] == kNoPrimitive
-                       ? background[std::size_t(y)]
-                       : shade_primitive(scene, ids[std::size_t(k)], int64_t(x) * kSubpixel + kHalfSample,
-                                         int64_t(y) * kSubpixel + kHalfSample);
-          }
-          color = sum * 0.25f;
-        }
-        out[0] = to_byte(color.x);
-        out[1] = to_byte(color.y);
-        out[2] = to_byte(color.z);
+  for_each_index(std::size_t(image.height), 4, [&](std::size_t row) {
+    const int py = int(row);
+    const int sy = 2 * py;
+    const Vec3f row_background = (background[std::size_t(sy)] + background[std::size_t(sy + 1)]) * 0.5f;
+    const std::array<uint8_t, 3> background_bytes = {to_byte(row_background.x), to_byte(row_background.y),
+                                                     to_byte(row_background.z)};
+    uint8_t* out = &image.rgb[std::size_t(py) * std::size_t(image.width) * 3];
+    for (int px = 0; px < image.width; ++px, out += 3) {
+      const int sx = 2 * px;
+      const std::array<uint32_t, 4> ids = {
+          buffer.primitive[buffer.index(sx, sy)], buffer.primitive[buffer.index(sx + 1, sy)],
+          buffer.primitive[buffer.index(sx, sy + 1)], buffer.primitive[buffer.index(sx + 1, sy + 1)]};
+      const bool uniform = ids[0] == ids[1] && ids[0] == ids[2] && ids[0] == ids[3];
+      if (uniform && ids[0] == kNoPrimitive) {
+        std::copy(background_bytes.begin(), background_bytes.end(), out);
+        continue;
       }
+      Vec3f color;
+      if (uniform) {
+        color = shade_primitive(scene, ids[0], int64_t(sx + 1) * kSubpixel, int64_t(sy + 1) * kSubpixel);
+      } else {
+        Vec3f sum{0, 0, 0};
+        for (int k = 0; k < 4; ++k) {
+          const int x = sx + (k & 1), y = sy + (k >> 1);
+          sum += ids[std::size_t(k)] == kNoPrimitive
+                     ? background[std::size_t(y)]
+                     : shade_primitive(scene, ids[std::size_t(k)], int64_t(x) * kSubpixel + kHalfSample,
+                                       int64_t(y) * kSubpixel + kHalfSample);
+        }
+        color = sum * 0.25f;
+      }
+      out[0] = to_byte(color.x);
+      out[1] = to_byte(color.y);
+      out[2] = to_byte(color.z);
     }
   });
   return image;

@@ -1,7 +1,6 @@
 // meniscus — mesh adjacency (CSR rows of neighbours and of incident triangles).
 #include "smooth/adjacency.hpp"
 
-#include <tbb/parallel_for.h>
 #include <tbb/parallel_scan.h>
 
 #include <algorithm>
@@ -22,24 +21,25 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
   // The triangle lists: counted and filled in parallel through atomic cursors, then each list
   // sorted — ascending, as a serial fill in triangle order would leave it.
   resize_huge(adj.tri_offsets, nv + 1);
-  for_each_index(nv + 1, [&](std::size_t i) { adj.tri_offsets[i] = 0; }, 65536);
-  for_each_index(triangles.size(), [&](std::size_t f) {
-    for (uint32_t v : triangles[f]) std::atomic_ref<uint32_t>(adj.tri_offsets[v + 1]).fetch_add(1, std::memory_order_relaxed);
-  }, 16384);
+  for_each_index(nv + 1, 65536, [&](std::size_t i) { adj.tri_offsets[i] = 0; });
+  for_each_index(triangles.size(), 16384, [&](std::size_t f) {
+    for (uint32_t v : triangles[f])
+      std::atomic_ref<uint32_t>(adj.tri_offsets[v + 1]).fetch_add(1, std::memory_order_relaxed);
+  });
   for (std::size_t i = 0; i < nv; ++i) adj.tri_offsets[i + 1] += adj.tri_offsets[i];
   resize_huge(adj.tri_ids, adj.tri_offsets[nv]);
   {
     UninitVector<uint32_t> fill;
     resize_huge(fill, nv);
-    for_each_index(nv, [&](std::size_t i) { fill[i] = adj.tri_offsets[i]; }, 65536);
-    for_each_index(triangles.size(), [&](std::size_t f) {
+    for_each_index(nv, 65536, [&](std::size_t i) { fill[i] = adj.tri_offsets[i]; });
+    for_each_index(triangles.size(), 16384, [&](std::size_t f) {
       for (uint32_t v : triangles[f])
         adj.tri_ids[std::atomic_ref<uint32_t>(fill[v]).fetch_add(1, std::memory_order_relaxed)] = uint32_t(f);
-    }, 16384);
+    });
   }
-  for_each_index(nv, [&](std::size_t i) {
+  for_each_index(nv, 4096, [&](std::size_t i) {
     std::sort(adj.tri_ids.begin() + adj.tri_offsets[i], adj.tri_ids.begin() + adj.tri_offsets[i + 1]);
-  }, 4096);
+  });
 
   // Each vertex's neighbours come from its incident triangles: collect, sort, unique. A vertex
   // whose triangles close a fan (every vertex of a closed manifold mesh, such as the extraction's)
@@ -58,9 +58,9 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
   };
   // Calls row(i, entries, n) with each vertex's gathered row, in parallel.
   auto for_each_row = [&](auto&& row) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 2048), [&](const auto& r) {
+    for_each_chunk(nv, 2048, [&](std::size_t begin, std::size_t end) {
       std::vector<uint32_t> scratch;
-      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      for (std::size_t i = begin; i != end; ++i) {
         scratch.resize(2 * (adj.tri_offsets[i + 1] - adj.tri_offsets[i]));
         row(i, scratch.data(), gather(uint32_t(i), scratch.data()));
       }
@@ -78,7 +78,7 @@ Adjacency build_adjacency(std::size_t vertex_count, std::span<const Triangle> tr
     return fits.load();
   };
   resize_huge(adj.offsets, nv + 1);
-  for_each_index(nv + 1, [&](std::size_t i) { adj.offsets[i] = adj.tri_offsets[i]; }, 65536);
+  for_each_index(nv + 1, 65536, [&](std::size_t i) { adj.offsets[i] = adj.tri_offsets[i]; });
   resize_huge(adj.neighbors, adj.offsets[nv]);
   if (write_rows(adj.offsets)) return adj;
 
@@ -100,12 +100,11 @@ void fill_corner_lists(Adjacency& adj, const Neighbors& neighbors, std::span<con
   const std::size_t nv = adj.vertex_count();
   resize_huge(adj.corner_offsets, nv + 1);
   adj.corner_offsets[0] = 0;
-  for_each_index(nv, [&](std::size_t i) {
-    adj.corner_offsets[i + 1] = adj.tri_offsets[i + 1] - adj.tri_offsets[i];
-  }, 65536);
+  for_each_index(nv, 65536,
+                 [&](std::size_t i) { adj.corner_offsets[i + 1] = adj.tri_offsets[i + 1] - adj.tri_offsets[i]; });
   std::inclusive_scan(adj.corner_offsets.begin(), adj.corner_offsets.end(), adj.corner_offsets.begin());
   resize_huge(adj.corners, adj.corner_offsets[nv]);
-  for_each_index(nv, [&](std::size_t i) {
+  for_each_index(nv, 4096, [&](std::size_t i) {
     const uint32_t r = uint32_t(i);
     const uint32_t row_begin = adj.offsets[i], row_end = adj.offsets[i + 1];
     // The slot of v in row i, as cotan_row finds it; kNoSlot (i itself, in a degenerate triangle)
@@ -120,16 +119,16 @@ void fill_corner_lists(Adjacency& adj, const Neighbors& neighbors, std::span<con
       corners_after(triangles[adj.tri_ids[k]].data(), r, &j, &l);
       *out++ = {slot_of(j), slot_of(l)};
     }
-  }, 4096);
+  });
 }
 
 }  // namespace
 
 bool corner_lists_fit(const Adjacency& adj) {
   std::atomic<bool> fits{true};
-  for_each_index(adj.vertex_count(), [&](std::size_t i) {
+  for_each_index(adj.vertex_count(), 65536, [&](std::size_t i) {
     if (adj.offsets[i + 1] - adj.offsets[i] > kMaxCornerRow) fits.store(false, std::memory_order_relaxed);
-  }, 65536);
+  });
   return fits.load();
 }
 
@@ -140,6 +139,5 @@ bool adopt_corner_lists(Adjacency& adj, std::span<const Triangle> triangles) {
   UninitVector<uint32_t>().swap(adj.tri_ids);
   return true;
 }
-
 
 }  // namespace meniscus

@@ -1,9 +1,9 @@
 // meniscus — the adjacency's neighbour lists in 16 bits an entry (see the header).
 #include "smooth/compact_neighbors.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <numeric>
+
+#include "common/for_each.hpp"
 
 namespace meniscus {
 
@@ -19,7 +19,7 @@ CompactNeighborLists compact_neighbor_lists(std::span<const uint32_t> offsets, s
   CompactNeighborLists out;
   // The far entries of each chunk of rows counted, then listed in order (entries ascending).
   out.chunk_far.assign(chunks + 1, 0);
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t q) {
+  for_each_index(chunks, [&](std::size_t q) {
     const auto [b, e] = rows_of(q);
     uint32_t far = 0;
     for (uint32_t i = b; i < e; ++i)
@@ -30,7 +30,7 @@ CompactNeighborLists compact_neighbor_lists(std::span<const uint32_t> offsets, s
   resize_huge(out.delta, neighbors.size());
   out.far_entry.resize(out.chunk_far.back());
   out.far_vertex.resize(out.chunk_far.back());
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t q) {
+  for_each_index(chunks, [&](std::size_t q) {
     const auto [b, e] = rows_of(q);
     uint32_t f = out.chunk_far[q];
     for (uint32_t i = b; i < e; ++i)

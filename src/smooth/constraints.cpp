@@ -1,12 +1,11 @@
 // meniscus — constraint projection (Williams 2008 §4.2).
 #include "smooth/constraints.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 
+#include "common/for_each.hpp"
 #include "smooth/constraint_impl.hpp"
 
 namespace meniscus {
@@ -225,9 +224,7 @@ double ellipsoid_constraint_residual(const EllipsoidConstraint& c, std::span<con
 }
 
 void project_vertices(const ShellConstraint& c, std::span<Vec3f> x) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 1024), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) x[i] = project_vertex(c, x[i]);
-  });
+  for_each_index(x.size(), 1024, [&](std::size_t i) { x[i] = project_vertex(c, x[i]); });
 }
 
 }  // namespace meniscus

@@ -1,13 +1,12 @@
 // meniscus — constraint projection against the particles (Williams 2008 §4.2).
 #pragma once
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cstdint>
 #include <span>
 #include <vector>
 
+#include "common/for_each.hpp"
 #include "common/huge_pages.hpp"
 #include "smooth/constraint_impl.hpp"
 #include "grid/hash_grid.hpp"
@@ -80,11 +79,9 @@ class CachedParticleLists {
     resize_huge(entries_, x.size());
     resize_huge(ids_, x.size() * std::size_t(K));
     resize_huge(slack_, x.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 1024), [&](const auto& r) {
-      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-        slack_[i] = -1.0f;
-        refresh(uint32_t(i), x[i]);
-      }
+    for_each_index(x.size(), 1024, [&](std::size_t i) {
+      slack_[i] = -1.0f;
+      refresh(uint32_t(i), x[i]);
     });
   }
   /// Whether vertex i, having moved `moved` (in the constraint's distance) since its last

@@ -1,7 +1,6 @@
 // meniscus — A and B operators (Williams 2008 §4; Desbrun et al. 1999 for the cotangent form).
 #include "smooth/operators.hpp"
 
-#include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
@@ -21,7 +20,7 @@ template <class Term>
 double sum_in_tree(std::size_t n, Term&& term) {
   const std::vector<std::size_t> leaves = sum_tree_leaves(n);
   std::vector<double> sums(leaves.size() - 1);
-  tbb::parallel_for(std::size_t(0), sums.size(), [&](std::size_t l) {
+  for_each_index(sums.size(), [&](std::size_t l) {
     double s = 0.0;
     for (std::size_t k = leaves[l]; k < leaves[l + 1]; ++k) s += term(k);
     sums[l] = s;
@@ -43,9 +42,9 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
   // same entry, so no atomics are needed. From the corner lists when the adjacency has them (the
   // triangles are then not read), else from the triangle lists.
   auto for_each_row = [&](auto&& row) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const auto& r) {
+    for_each_chunk(nv, 1024, [&](std::size_t begin, std::size_t end) {
       float diag;  // summed again where needed (w_diagonal)
-      for (std::size_t iv = r.begin(); iv != r.end(); ++iv) row(uint32_t(iv), &diag, &op.area[iv]);
+      for (std::size_t iv = begin; iv != end; ++iv) row(uint32_t(iv), &diag, &op.area[iv]);
     });
   };
   if (!adj.corner_offsets.empty()) {
@@ -64,14 +63,14 @@ CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Tri
   // Vertices that collapsed onto a neighbour have no area; a floor keeps D invertible without
   // changing any healthy vertex. A constant of the parameters (from h), not of the mesh: a vertex's
   // operator row depends on its ring alone.
-  for_each_index(nv, [&](std::size_t i) { op.area[i] = std::max(op.area[i], area_floor); }, 16384);
+  for_each_index(nv, 16384, [&](std::size_t i) { op.area[i] = std::max(op.area[i], area_floor); });
   return op;
 }
 
 void apply_w(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> x, std::span<Vec3f> y) {
   adj.with_neighbors([&](const auto& neighbors) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), 2048), [&](const auto& r) {
-      for (std::size_t i = r.begin(); i != r.end(); ++i)
+    for_each_chunk(x.size(), 2048, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i != end; ++i)
         y[i] = apply_w_row(adj.offsets.data(), neighbors, op.w.data(), nullptr, x.data(), uint32_t(i));
     });
   });

@@ -1,7 +1,6 @@
 // meniscus — constrained smoothing schedule (Williams 2008 §4; Edespong 2010 §3.5).
 #include "smooth/smooth.hpp"
 
-#include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 
 #include <algorithm>
@@ -76,11 +75,12 @@ struct CpuSweeps {
 
   void a_begin() {
     resize_huge(other, nv());
-    for_each_index(nv(), [&](std::size_t i) { other[i] = x[i]; }, 4096);
+    for_each_index(nv(), 4096, [&](std::size_t i) { other[i] = x[i]; });
   }
   void a_sweep(float weight) {
-    for_each_index(nv(), ASweep<Neighbors, Project>{rows(), x.data(), other.data(), o.relax_a, weight,
-                                                    constrained_any, project}, kGrain);
+    for_each_index(
+        nv(), kGrain,
+        ASweep<Neighbors, Project>{rows(), x.data(), other.data(), o.relax_a, weight, constrained_any, project});
     x.swap(other);
   }
   void a_end() { std::vector<Vec3f>().swap(other); }
@@ -105,13 +105,14 @@ struct CpuSweeps {
   }
   void set_damping() {
     damped = 0;
-    for_each_index(nv(), BDamping<Neighbors>{rows(), o.relax_b, omega.data(), &damped}, kGrain);
+    for_each_index(nv(), kGrain, BDamping<Neighbors>{rows(), o.relax_b, omega.data(), &damped});
   }
-  void update_wx() { for_each_index(nv(), ApplyW<Neighbors>{rows(), x.data(), wx.data()}, kGrain); }
+  void update_wx() { for_each_index(nv(), kGrain, ApplyW<Neighbors>{rows(), x.data(), wx.data()}); }
   double energy() const { return bilaplacian_energy(op, wx); }
   void b_sweep(bool constrained) {
-    for_each_index(nv(), BSweep<Neighbors, Project>{rows(), wx.data(), omega.data(), x.data(),
-                                                    constrained && constrained_any, project}, kGrain);
+    for_each_index(
+        nv(), kGrain,
+        BSweep<Neighbors, Project>{rows(), wx.data(), omega.data(), x.data(), constrained && constrained_any, project});
   }
   std::size_t damped_vertices() const { return std::size_t(damped); }
   double least_damping() const {
@@ -234,7 +235,7 @@ ComponentBatches component_batches(std::size_t nv, std::span<const Triangle> tri
     filled += size[k];
   }
   ++batches.count;
-  for_each_index(nv, [&](std::size_t v) { of[v] = batch_of[of[v]]; }, 4096);
+  for_each_index(nv, 4096, [&](std::size_t v) { of[v] = batch_of[of[v]]; });
   return batches;
 }
 
@@ -280,7 +281,7 @@ SmoothingStats smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& tria
   // numbered in space: one or two batches), so that a batch decodes only its own blocks.
   const PackedTriangles& packed = mesh_triangles.packed();
   std::vector<std::pair<uint32_t, uint32_t>> block_batches(packed.block_count());
-  tbb::parallel_for(std::size_t(0), packed.block_count(), [&](std::size_t k) {
+  for_each_index(packed.block_count(), [&](std::size_t k) {
     uint32_t lo = UINT32_MAX, hi = 0;
     packed.decode_block(k, [&](const Triangle& t) {
       lo = std::min(lo, batches.of[t[0]]);
@@ -300,11 +301,11 @@ SmoothingStats smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& tria
     std::vector<float> relax;
     resize_huge(xb, vertices.size());
     if (weighted) relax.resize(vertices.size());
-    for_each_index(vertices.size(), [&](std::size_t k) {
+    for_each_index(vertices.size(), 4096, [&](std::size_t k) {
       local[vertices[k]] = uint32_t(k);
       xb[k] = x[vertices[k]];
       if (weighted) relax[k] = o.vertex_relax[vertices[k]];
-    }, 4096);
+    });
     std::vector<Triangle> tb = packed.select(
         [&](const Triangle& t) { return batches.of[t[0]] == b; },
         [&](const Triangle& t) { return Triangle{local[t[0]], local[t[1]], local[t[2]]}; },
@@ -315,7 +316,7 @@ SmoothingStats smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& tria
       if (progress) progress((double(done) + f * double(vertices.size())) / double(nv));
     };
     const SmoothingStats r = smooth_cached<Cache>(xb, tb, constraint, ob, pb);
-    for_each_index(vertices.size(), [&](std::size_t k) { x[vertices[k]] = xb[k]; }, 4096);
+    for_each_index(vertices.size(), 4096, [&](std::size_t k) { x[vertices[k]] = xb[k]; });
     done += vertices.size();
     total.energy_start += r.energy_start;
     total.energy_final += r.energy_final;

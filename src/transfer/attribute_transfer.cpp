@@ -16,7 +16,7 @@ Attribute transfer_attribute(const Attribute& attribute, const HashGrid& grid, s
   out.values.resize(vertices.size() * std::size_t(attribute.components));
   const TransferData d{attribute.values.data(), attribute.components, grid.order().data(), vertices.data(), radius,
                        out.values.data()};
-  for_each_index(vertices.size(), [&](std::size_t v) { transfer_vertex(grid, d, v); }, 512);
+  for_each_index(vertices.size(), 512, [&](std::size_t v) { transfer_vertex(grid, d, v); });
   return out;
 }
 

@@ -248,20 +248,23 @@ TEST(Safety, KilledMidWriteLeavesNoVisiblePartialFileAndTheNextRunTidies) {
   const std::string mesh = slurp(t.path / "reference/m.ply.gz"), picture = slurp(t.path / "reference/p.png");
   const auto field_size = fs::file_size(t.path / "reference/f.vdb");
 
-  // Killed at moments spread over the run: whatever the moment, every visible file is whole.
-  constexpr int kKills = 10;
+  // Killed at moments spread over the run: whatever the moment, every visible file is whole. Under load
+  // (ctest -j) a run takes longer than the reference did, so while no kill has come during a write,
+  // more kills follow, spread later over up to twice the reference time.
+  constexpr int kKills = 10, kMaxKills = 40;
   fs::create_directory(t.path / "killed");
   const std::string line = command(t.path / "killed");
   int mid_write = 0;  // kills that left a temporary: they came while a file was being written
   std::set<std::string> seen;
-  for (int k = 0; k < kKills; ++k) {
+  for (int k = 0; k < kKills || (mid_write == 0 && k < kMaxKills); ++k) {
     for (const std::string& name : listing(t.path / "killed", false)) fs::remove(t.path / "killed" / name);
     const pid_t pid = fork();
     if (pid == 0) {
       execl("/bin/sh", "sh", "-c", ("exec " + line + " 2>/dev/null").c_str(), static_cast<char*>(nullptr));
       _exit(127);
     }
-    std::this_thread::sleep_for(std::chrono::duration<double>(seconds * (0.2 + 0.8 * k / kKills)));
+    const double moment = k < kKills ? 0.2 + 0.8 * k / kKills : 0.6 + 1.4 * (k - kKills) / (kMaxKills - kKills);
+    std::this_thread::sleep_for(std::chrono::duration<double>(seconds * moment));
     kill(pid, SIGKILL);
     int status = 0;
     waitpid(pid, &status, 0);

@@ -34,6 +34,8 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
+from .parameter_table import PARAMETERS
+
 ADDON = __name__
 
 
@@ -393,10 +395,76 @@ def update_result_object(scene, name, arrays):
 
 # --- settings, operator, panel, handler -----------------------------------------------------------
 
-PRESETS = [("NONE", "Default", "The library's defaults"),
-           ("preview", "Preview", "Fast: coarse field, few sweeps"),
-           ("production", "Production", "Fine field, full smoothing"),
-           ("droplets", "Droplets", "Keeps thin sheets and small droplets")]
+# --- the panel's properties, made from the program's table ---------------------------------------
+# Each property of a library parameter takes its default, range and help from PARAMETERS (made from
+# `meniscus info --parameters`); the panel adds only its label and display hints (a slider's soft
+# range, a unit for Blender's unit system).
+
+def _description(key):
+    p = PARAMETERS[key]
+    text = p["help"][:1].upper() + p["help"][1:]
+    return text + (f" ({p['default']:g}: {p['zero']})" if "zero" in p else "")
+
+
+def _range(key, ui):
+    p = PARAMETERS[key]
+    bounds = {}
+    if p.get("min") is not None and "min" not in ui:
+        if p.get("min_open"):
+            raise ValueError(f"{key}: the table's minimum {p['min']} is open; the panel must give its own")
+        bounds["min"] = p["min"]
+    if p.get("max") is not None and "max" not in ui:
+        bounds["max"] = p["max"]
+    return bounds
+
+
+def table_float(key, name, **ui):
+    """A FloatProperty for the table's number `key`; `ui` adds display hints or a control's default."""
+    p = PARAMETERS[key]
+    assert p["type"] == "number", key
+    kw = dict(name=name, description=_description(key), **_range(key, ui))
+    if "default" in p:
+        kw["default"] = p["default"]
+    if p.get("unit") == "length":
+        kw.update(unit="LENGTH", precision=4)
+    kw.update(ui)
+    return bpy.props.FloatProperty(**kw)
+
+
+def table_int(key, name, **ui):
+    p = PARAMETERS[key]
+    assert p["type"] == "integer", key
+    kw = dict(name=name, description=_description(key), default=p["default"],
+              **{k: int(v) for k, v in _range(key, ui).items()})
+    kw.update(ui)
+    return bpy.props.IntProperty(**kw)
+
+
+def table_flag(key, name, **ui):
+    p = PARAMETERS[key]
+    assert p["type"] == "flag", key
+    return bpy.props.BoolProperty(name=name, description=_description(key), default=p["default"], **ui)
+
+
+def table_choice(key, name, labels, first=None):
+    """An EnumProperty of the table's choices, each shown with its (label, tooltip) from `labels`;
+    `first` (identifier, label, tooltip) goes before them and is then the default."""
+    p = PARAMETERS[key]
+    assert p["type"] == "choice", key
+    items = [first] if first else []
+    items += [(c, *labels.get(c, (c.replace("-", " ").title(), ""))) for c in p["choices"]]
+    default = first[0] if first else p["default"]
+    return bpy.props.EnumProperty(name=name, items=items, default=default, description=_description(key))
+
+
+PRESET_LABELS = {"preview": ("Preview", "Fast: coarse field, few sweeps"),
+                 "production": ("Production", "Fine field, full smoothing"),
+                 "droplets": ("Droplets", "Keeps thin sheets and small droplets")}
+FIELD_LABELS = {"distance": ("Distance", "Williams' union of spheres: keeps every droplet, fastest"),
+                "anisotropic": ("Anisotropic", "Yu & Turk's stretched kernels: flat sheets stay whole sheets"),
+                "zhu-bridson": ("Zhu-Bridson", "Distance to the kernel-weighted mean of the particles"),
+                "sph": ("SPH", "The SPH colour field at half density"),
+                "metaball": ("Metaballs", "Blinn's metaballs at half the bulk value")}
 
 
 class MeniscusSettings(bpy.types.PropertyGroup):
@@ -412,16 +480,12 @@ class MeniscusSettings(bpy.types.PropertyGroup):
     follow_frames: bpy.props.BoolProperty(
         name="Update on frame change", default=True,
         description="Re-surface the file sequence whenever the current frame changes")
-    preset: bpy.props.EnumProperty(name="Preset", items=PRESETS, default="NONE")
-    smoothness: bpy.props.FloatProperty(
-        name="Smoothness", min=0.0, max=1.0, default=0.5, subtype="FACTOR",
-        description="0 keeps the blobby union of spheres, 1 gives the smoothest surface the particles allow")
-    detail: bpy.props.FloatProperty(
-        name="Detail", min=0.25, max=8.0, soft_max=4.0, default=1.0,
-        description="Field resolution: 2 halves the voxel size (about 4x the triangles)")
-    erode: bpy.props.FloatProperty(
-        name="Erode", min=0.0, default=0.0, unit="LENGTH", precision=4,
-        description="Move the finished surface inwards by this distance")
+    preset: table_choice("preset", "Preset", PRESET_LABELS, first=("NONE", "Default", "The library's defaults"))
+    # smoothness is a control (it sets the sweeps) with no default of its own: 0.5 is the default schedule.
+    smoothness: table_float("smoothness", "Smoothness", default=0.5, subtype="FACTOR")
+    detail: table_float("detail", "Detail", min=0.25, soft_max=4.0)
+    erode: table_float("erode", "Erode")
+    min_particles: table_int("min_particles", "Min Particles")
     use_particle_box: bpy.props.BoolProperty(
         name="Particle Box", default=False,
         description="Surface only the particles inside a box (drop those stuck in the tank's walls)")
@@ -429,10 +493,6 @@ class MeniscusSettings(bpy.types.PropertyGroup):
         name="Box Min", size=3, default=(-1.0, -1.0, -1.0), unit="LENGTH", description="The box's lowest corner")
     particle_box_max: bpy.props.FloatVectorProperty(
         name="Box Max", size=3, default=(1.0, 1.0, 1.0), unit="LENGTH", description="The box's highest corner")
-    min_particles: bpy.props.IntProperty(
-        name="Min Particles", min=0, default=0,
-        description="Drop surface pieces enclosing fewer particles than this (strays, particles stuck in a wall); "
-                    "0 keeps every droplet")
     use_clip_box: bpy.props.BoolProperty(
         name="Clip Box", default=False,
         description="Cut the finished surface by a box: the tank's walls and floor go, the water's top stays")
@@ -440,43 +500,30 @@ class MeniscusSettings(bpy.types.PropertyGroup):
         name="Clip Min", size=3, default=(-1.0, -1.0, -1.0), unit="LENGTH", description="The clip box's lowest corner")
     clip_box_max: bpy.props.FloatVectorProperty(
         name="Clip Max", size=3, default=(1.0, 1.0, 1.0), unit="LENGTH", description="The clip box's highest corner")
-    clip_cap: bpy.props.BoolProperty(
-        name="Cap", default=False, description="Close the cut with the box's faces (the mesh stays watertight)")
-    decimate: bpy.props.FloatProperty(
-        name="Decimate", min=0.0, max=1.0, default=0.0, precision=3, step=1,
-        description="Simplify the mesh while it stays within this many particle spacings of the full one "
-                    "(0.02 is typical; 0 keeps every triangle)")
-    spacing: bpy.props.FloatProperty(
-        name="Spacing", min=0.0, default=0.0, unit="LENGTH", precision=4,
-        description="Particle separation; 0 estimates it from the particles")
+    clip_cap: table_flag("clip_cap", "Cap")
+    decimate: table_float("decimate", "Decimate", precision=3, step=1)
+    spacing: table_float("spacing", "Spacing")
     transfer_velocity: bpy.props.BoolProperty(
         name="Velocity", default=False, description="Carry the particles' velocity onto the mesh (point attribute)")
     transfer_color: bpy.props.BoolProperty(
         name="Color", default=False, description="Carry the particles' colour onto the mesh (colour attribute)")
     color_attribute: bpy.props.StringProperty(
         name="Colour attribute", default="", description="Point colour attribute of the source (empty: the active one)")
-    field: bpy.props.EnumProperty(
-        name="Field",
-        items=[("distance", "Distance", "Williams' union of spheres: keeps every droplet, fastest"),
-               ("anisotropic", "Anisotropic", "Yu & Turk's stretched kernels: flat sheets stay whole sheets"),
-               ("zhu-bridson", "Zhu-Bridson", "Distance to the kernel-weighted mean of the particles"),
-               ("sph", "SPH", "The SPH colour field at half density"),
-               ("metaball", "Metaballs", "Blinn's metaballs at half the bulk value")],
-        default="distance",
-        description="The field whose level set is the surface before smoothing")
-    smooth_particles: bpy.props.FloatProperty(
-        name="Smooth particles", min=-1.0, max=1.0, default=-1.0, subtype="FACTOR",
-        description="Laplacian smoothing of the particle positions before the field, against flicker "
-                    "(-1: the default, 0 for Distance, 0.3 for Anisotropic)")
-    velocity_weighted: bpy.props.BoolProperty(
-        name="Velocity weighted", default=False,
-        description="Smooth calm water more than fast water (needs a velocity attribute)")
+    field: table_choice("field", "Field", FIELD_LABELS)
+    smooth_particles: table_float("smooth_particles", "Smooth particles", subtype="FACTOR")
+    velocity_weighted: table_flag("velocity_weighted", "Velocity weighted")
     adjust_preset: bpy.props.BoolProperty(
         name="Adjust", default=False,
         description="Apply Smoothness and Detail on top of the preset (else the preset's own schedule)")
     result_name: bpy.props.StringProperty(
         name="Result", default="", description="Object that receives the surface (empty: <source> surface)")
     last_report: bpy.props.StringProperty(name="Last run", default="")
+
+
+# The panel's properties that are the table's parameters and pass through as they are (preset,
+# smoothness and detail go together; clip_cap only with the clip box).
+TABLE_KEYS = [key for key in MeniscusSettings.__annotations__
+              if key in PARAMETERS and key not in ("preset", "smoothness", "detail", "clip_cap")]
 
 
 def params_from_settings(settings):
@@ -486,26 +533,16 @@ def params_from_settings(settings):
         params["preset"] = settings.preset
     if settings.preset == "NONE" or settings.adjust_preset:
         params.update(smoothness=settings.smoothness, detail=settings.detail)
-    if settings.erode > 0:
-        params["erode"] = settings.erode
-    if settings.min_particles > 0:
-        params["min_particles"] = settings.min_particles
+    for key in TABLE_KEYS:  # the rest of the table's parameters: each when it is not the table's default
+        value = getattr(settings, key)
+        if value != PARAMETERS[key]["default"]:
+            params[key] = value
     if settings.use_particle_box:
         params["particle_box"] = [*settings.particle_box_min, *settings.particle_box_max]
     if settings.use_clip_box:
         params["clip_box"] = [*settings.clip_box_min, *settings.clip_box_max]
         if settings.clip_cap:
             params["clip_cap"] = True
-    if settings.decimate > 0:
-        params["decimate"] = settings.decimate
-    if settings.spacing > 0:
-        params["spacing"] = settings.spacing
-    if settings.field != "distance":
-        params["field"] = settings.field
-    if settings.smooth_particles >= 0:
-        params["smooth_particles"] = settings.smooth_particles
-    if settings.velocity_weighted:
-        params["velocity_weighted"] = True
     transfer = [n for n, on in (("velocity", settings.transfer_velocity), ("color", settings.transfer_color)) if on]
     if transfer:
         params["transfer"] = transfer

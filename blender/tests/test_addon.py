@@ -287,6 +287,34 @@ def surface_particle_system():
     bpy.context.scene.frame_set(1)
 
 
+def check_properties_follow_the_table():
+    """The panel's properties of library parameters take the program's own defaults, ranges, help and
+    choices (asked of the CLI here, not of the add-on's generated table)."""
+    table = {p["key"]: p for p in json.loads(subprocess.run([os.environ["MENISCUS_CLI"], "info", "--parameters"],
+                                                            check=True, capture_output=True, text=True).stdout)}
+    rna = addon.MeniscusSettings.bl_rna.properties
+    keys = addon.TABLE_KEYS + ["preset", "smoothness", "detail", "clip_cap"]
+    assert {"erode", "min_particles", "decimate", "spacing", "field", "smooth_particles"} <= set(keys), keys
+    for key in keys:
+        p, prop = table[key], rna[key]
+        assert prop.description.lower().startswith(p["help"].lower()), (key, prop.description)
+        if p["type"] in ("number", "integer"):
+            if p.get("default") is not None:
+                assert abs(prop.default - p["default"]) < 1e-6, (key, prop.default, p["default"])
+            if p.get("max") is not None:
+                assert abs(prop.hard_max - p["max"]) < 1e-6 * max(1, p["max"]), (key, prop.hard_max, p["max"])
+            if p.get("min") is not None:  # an open minimum (detail > 0) is the panel's own, above it
+                assert prop.hard_min > p["min"] if p["min_open"] else prop.hard_min == p["min"], (key, prop.hard_min)
+        elif p["type"] == "choice":
+            assert [i.identifier for i in prop.enum_items if i.identifier != "NONE"] == p["choices"], key
+            if p.get("default") is not None:
+                assert prop.default == p["default"], key
+        elif p["type"] == "flag":
+            assert prop.default == p["default"], key
+    print(f"{len(keys)} panel properties follow the program's table")
+
+
+check_properties_follow_the_table()
 check_panel_draws()
 with tempfile.TemporaryDirectory(prefix="meniscus-blender-") as tmp:
     surface_particle_system()

@@ -5,13 +5,15 @@
 #include <tbb/info.h>
 
 #include "cli.hpp"
-#include "field/vdb_export.hpp"
+#include "io/vdb_export.hpp"
 #include "info.hpp"
 #include "meniscus/backend.hpp"
 #include "meniscus/io.hpp"
 #include "meniscus/parameters.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "mpi_surface.hpp"
+#include "post/clip.hpp"
+#include "post/decimate.hpp"
 
 namespace meniscus::cli {
 
@@ -42,6 +44,8 @@ int run_info(const InfoArgs& a) {
                  d.minor, double(d.total_memory) / 1e9, double(d.free_memory) / 1e9);
   }
   fmt::print("openvdb: {}\n", has_openvdb() ? "yes (--save-field writes .vdb level sets)" : "no");
+  fmt::print("cgal: {}\n", clip_cap_unavailable() ? "no (--clip-cap refused)" : "yes (--clip-cap closes the cut)");
+  fmt::print("meshoptimizer: {}\n", decimate_unavailable() ? "no (--decimate refused)" : "yes (--decimate simplifies)");
   fmt::print("mpi: {}\n", mpi_built() ? "yes (mpirun -n K meniscus surface spreads one frame over K ranks)"
                                             : "no (built without MPI)");
   fmt::print("particle formats: {}\n", fmt::join(particle_formats(), " "));

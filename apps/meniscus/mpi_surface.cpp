@@ -373,276 +373,340 @@ MpiSession::~MpiSession() {
   if (active_) MPI_Finalize();
 }
 
-int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
-  const int rank = session.rank(), ranks = session.size();
-  const auto t0 = std::chrono::steady_clock::now();
-  std::vector<std::pair<std::string, double>> stages;  // rank 0's view of the job
+namespace {
 
-  // The frame: a file of fixed-size records (binary PLY, raw .xyz) is read in parts, one per
-  // rank, and the frame-wide estimates and the cuts are reductions over the parts; any other file
-  // is read by rank 0, which makes them on the whole frame and scatters the slabs.
-  uint64_t records = 0;
-  if (rank == 0) records = particle_records(job.input);
-  MPI_Bcast(&records, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
-  const bool in_parts = records >= uint64_t(ranks) && ranks > 1;
-  const Reduce reduce = mpi_reduce();
-  ParticleSet all;  // rank 0's whole frame, or each rank's part
-  Params given = job.params;
-  std::size_t total_particles = 0, first = 0;
-  std::optional<std::string> error;
-  if (in_parts) {
-    const uint64_t begin = records * uint64_t(rank) / uint64_t(ranks), end = records * uint64_t(rank + 1) / uint64_t(ranks);
-    ReadReport report;
-    error = attempt([&] {
-      all = read_particle_range(job.input, begin, end - begin, job.read, &report);
-      keep_particles_in_box(all, job.params.particle_box);
-    });
-    if (!all_ok(error, rank)) return 1;
-    // Where this part starts once particles with NaN/Inf coordinates are dropped.
-    uint64_t kept = all.size(), before = 0, sum = 0;
-    MPI_Exscan(&kept, &before, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
-    MPI_Allreduce(&kept, &sum, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
-    first = rank == 0 ? 0 : std::size_t(before), total_particles = std::size_t(sum);
-    if (total_particles == 0)
-      error = fmt::format("{}: no particles once those with NaN/Inf coordinates or outside --particle-box are dropped", job.input);
-    if (!all_ok(rank == 0 ? error : std::nullopt, rank)) return 1;
-    error = attempt([&] { given = resolve_frame_estimates_parts(all, first, total_particles, job.params, reduce); });
-  } else if (rank == 0) {
-    error = attempt([&] {
-      all = read_particles(job.input, job.read);
-      keep_particles_in_box(all, job.params.particle_box);
-      if (all.size() == 0) throw InvalidParameter("particle_box: all the frame's particles are outside the box");
-      given = resolve_frame_estimates(all, job.params);
-      total_particles = all.size();
-    });
-  }
-  if (!all_ok(error, rank)) return 1;
-  stages.emplace_back(in_parts ? "read_parts" : "read", seconds_since(t0));
-  double estimates[3] = {given.spacing, given.rest_density, given.velocity_reference};
-  MPI_Bcast(estimates, 3, MPI_DOUBLE, 0, MPI_COMM_WORLD);
-  given = job.params;
-  given.spacing = estimates[0], given.rest_density = estimates[1], given.velocity_reference = estimates[2];
+/// One frame surfaced by the ranks of a job, in phases (the stats name their times: read or
+/// read_parts, scatter or exchange, surface, gather_weld, gather_write or write_pieces, write). Every rank runs every phase; a phase
+/// returns false on every rank when one failed (each failing rank has printed why).
+class RankRun {
+ public:
+  RankRun(const MpiSession& session, const MpiJob& job)
+      : job_(job), rank_(session.rank()), ranks_(session.size()), reduce_(mpi_reduce()) {}
 
-  // The slabs (every rank computes the same cuts from the resolved parameters rank 0 sends).
-  const auto t1 = std::chrono::steady_clock::now();
-  Decomposition d;
-  if (in_parts) {
-    error = attempt([&] { d = decompose_parts(all, total_particles, resolve_params(ParticleSet{{Vec3f{}}, {}}, given), ranks, reduce); });
-    if (!all_ok(error, rank)) return 1;
-  } else {
-    std::vector<double> cuts_message(std::size_t(ranks) + 1);  // axis, halo, cuts
-    if (rank == 0)
+  /// The frame: a file of fixed-size records (binary PLY, raw .xyz) is read in parts, one per
+  /// rank, and the frame-wide estimates (spacing, rest density, velocity reference) are reductions
+  /// over the parts; any other file is read by rank 0, which makes them on the whole frame.
+  bool read_frame() {
+    uint64_t records = 0;
+    if (rank_ == 0) records = particle_records(job_.input);
+    MPI_Bcast(&records, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+    in_parts_ = records >= uint64_t(ranks_) && ranks_ > 1;
+    std::optional<std::string> error;
+    Params given = job_.params;
+    if (in_parts_) {
+      const uint64_t begin = records * uint64_t(rank_) / uint64_t(ranks_);
+      const uint64_t end = records * uint64_t(rank_ + 1) / uint64_t(ranks_);
+      ReadReport report;
       error = attempt([&] {
-        d = decompose(all, resolve_params(all, given), ranks);
-        cuts_message[0] = d.axis, cuts_message[1] = d.halo;
-        std::copy(d.cuts.begin(), d.cuts.end(), cuts_message.begin() + 2);
+        all_ = read_particle_range(job_.input, begin, end - begin, job_.read, &report);
+        keep_particles_in_box(all_, job_.params.particle_box);
       });
-    if (!all_ok(error, rank)) return 1;
-    MPI_Bcast(cuts_message.data(), ranks + 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
-    d.ranks = ranks, d.axis = int(cuts_message[0]), d.halo = cuts_message[1];
-    d.cuts.assign(cuts_message.begin() + 2, cuts_message.end());
-  }
-
-  // Each rank its slab with its halo, attributes travelling with the particles: from rank 0, or
-  // from every rank's part (concatenated in rank order: the frame's order, as slab_particles keeps).
-  ParticleSet slab;
-  if (in_parts) {
-    error = attempt([&] { slab = exchange_slabs(std::move(all), d, rank, ranks, job.input); });
-    all = {};
-  } else if (rank == 0) {
-    for (int r = 1; r < ranks; ++r) send_bytes(pack(slab_particles(all, d, r)), r, kParticles);
-    slab = slab_particles(all, d, 0);
-    all = {};
-  } else {
-    error = attempt([&] { slab = unpack_particles(receive_bytes(0, kParticles)); });
-  }
-  if (!all_ok(error, rank)) return 1;
-  MPI_Bcast(&total_particles, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
-  stages.emplace_back(in_parts ? "exchange" : "scatter", seconds_since(t1));
-
-  // Every rank surfaces its slab and keeps the triangles it owns.
-  const auto t2 = std::chrono::steady_clock::now();
-  // A PLY output is written as the pieces come (each vertex once; rank 0 holds one piece at a
-  // time); other formats are welded whole on rank 0 first.
-  std::string extension = std::filesystem::path(job.output).extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  const bool streamed = !job.pieces && extension == ".ply";
-  Seams seams;
-  TriangleMesh piece;
-  Result result;
-  RankReport report;
-  report.particles = double(slab.size());
-  error = attempt([&] {
-    if (slab.size() == 0) return;  // a slab without particles owns no triangle
-    result = reconstruct(slab, given);
-    keep_owned(result.mesh, d, rank, streamed ? &seams : nullptr);
-    piece = std::move(result.mesh);
-    result.mesh = {};
-  });
-  slab = {};
-  report.surface_seconds = seconds_since(t2);
-  report.owned_vertices = double(piece.vertices.size());
-  report.owned_triangles = double(piece.triangles.size());
-  report.removed_voids = double(result.stats.removed_voids), report.removed_blobs = double(result.stats.removed_blobs);
-  report.dropped_triangles = double(result.stats.dropped_triangles);
-  if (!all_ok(error, rank)) return 1;
-
-  // --pieces: every rank writes its own; rank 0 the index. Otherwise rank 0 welds the pieces as
-  // they come (PieceWelder): every piece's positions first, then each piece's attributes and
-  // triangles, one piece at a time.
-  const auto t3 = std::chrono::steady_clock::now();
-  TriangleMesh mesh;
-  std::size_t streamed_vertices = 0;
-  if (job.pieces) {
-    error = attempt([&] { io::write_vtp_mesh(piece_path(job.output, rank), piece); });
-    if (!all_ok(error, rank)) return 1;
-    if (rank == 0) {
-      std::vector<std::string> names;
-      for (int r = 0; r < ranks; ++r) names.push_back(std::filesystem::path(piece_path(job.output, r)).filename().string());
-      error = attempt([&] { io::write_pvtp_index(job.output, names, piece); });
+      if (!all_ok(error, rank_)) return false;
+      // Where this part starts once particles with NaN/Inf coordinates are dropped.
+      uint64_t kept = all_.size(), before = 0, sum = 0;
+      MPI_Exscan(&kept, &before, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+      MPI_Allreduce(&kept, &sum, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+      const std::size_t first = rank_ == 0 ? 0 : std::size_t(before);
+      total_particles_ = std::size_t(sum);
+      if (total_particles_ == 0)
+        error = fmt::format(
+            "{}: no particles once those with NaN/Inf coordinates or outside --particle-box are dropped", job_.input);
+      if (!all_ok(rank_ == 0 ? error : std::nullopt, rank_)) return false;
+      error =
+          attempt([&] { given = resolve_frame_estimates_parts(all_, first, total_particles_, job_.params, reduce_); });
+    } else if (rank_ == 0) {
+      error = attempt([&] {
+        all_ = read_particles(job_.input, job_.read);
+        keep_particles_in_box(all_, job_.params.particle_box);
+        if (all_.size() == 0) throw InvalidParameter("particle_box: all the frame's particles are outside the box");
+        given = resolve_frame_estimates(all_, job_.params);
+        total_particles_ = all_.size();
+      });
     }
-    if (!all_ok(error, rank)) return 1;
-    piece = {};
-  } else if (streamed) {
-    StreamPart part = stream_part(std::move(piece), seams, rank);
-    piece = {}, seams = {};
-    const uint64_t mine[2] = {part.written.vertices.size(), part.triangles.size()};
-    std::vector<uint64_t> counts(2 * std::size_t(ranks));
-    MPI_Gather(mine, 2, MPI_UINT64_T, counts.data(), 2, MPI_UINT64_T, 0, MPI_COMM_WORLD);
-    if (rank == 0) {
-      error = attempt([&] { streamed_vertices = write_streamed(job.output, std::move(part), ranks, counts); });
+    if (!all_ok(error, rank_)) return false;
+    stages_.emplace_back(in_parts_ ? "read_parts" : "read", seconds_since(t0_));
+    double estimates[3] = {given.spacing, given.rest_density, given.velocity_reference};
+    MPI_Bcast(estimates, 3, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    given_ = job_.params;
+    given_.spacing = estimates[0], given_.rest_density = estimates[1], given_.velocity_reference = estimates[2];
+    return true;
+  }
+
+  /// The slabs: every rank computes the same cuts (from the parts), or rank 0 sends them.
+  bool cut_slabs() {
+    phase_start_ = std::chrono::steady_clock::now();
+    std::optional<std::string> error;
+    if (in_parts_) {
+      error = attempt([&] {
+        d_ = decompose_parts(all_, total_particles_, resolve_params(ParticleSet{{Vec3f{}}, {}}, given_), ranks_,
+                             reduce_);
+      });
+      return all_ok(error, rank_);
+    }
+    std::vector<double> cuts_message(std::size_t(ranks_) + 1);  // axis, halo, cuts
+    if (rank_ == 0)
+      error = attempt([&] {
+        d_ = decompose(all_, resolve_params(all_, given_), ranks_);
+        cuts_message[0] = d_.axis, cuts_message[1] = d_.halo;
+        std::copy(d_.cuts.begin(), d_.cuts.end(), cuts_message.begin() + 2);
+      });
+    if (!all_ok(error, rank_)) return false;
+    MPI_Bcast(cuts_message.data(), ranks_ + 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    d_.ranks = ranks_, d_.axis = int(cuts_message[0]), d_.halo = cuts_message[1];
+    d_.cuts.assign(cuts_message.begin() + 2, cuts_message.end());
+    return true;
+  }
+
+  /// Each rank its slab with its halo, attributes travelling with the particles: from rank 0, or
+  /// from every rank's part (concatenated in rank order: the frame's order, as slab_particles keeps).
+  bool send_slabs() {
+    std::optional<std::string> error;
+    if (in_parts_) {
+      error = attempt([&] { slab_ = exchange_slabs(std::move(all_), d_, rank_, ranks_, job_.input); });
+      all_ = {};
+    } else if (rank_ == 0) {
+      for (int r = 1; r < ranks_; ++r) send_bytes(pack(slab_particles(all_, d_, r)), r, kParticles);
+      slab_ = slab_particles(all_, d_, 0);
+      all_ = {};
     } else {
-      send_part(part, 0, kPiece);
-      part = {};
+      error = attempt([&] { slab_ = unpack_particles(receive_bytes(0, kParticles)); });
     }
-  } else if (rank == 0) {
-    error = attempt([&] {
-      PieceWelder welder(static_cast<std::size_t>(ranks));
-      std::vector<PieceHead> heads(static_cast<std::size_t>(ranks));
-      bool normals = piece.normals.size() == piece.vertices.size();
-      std::size_t triangles = piece.triangles.size();
-      std::vector<Vec3f>().swap(piece.normals);
-      welder.add_vertices(0, std::move(piece.vertices));
-      for (int r = 1; r < ranks; ++r) {
-        std::vector<Vec3f> positions;
-        heads[std::size_t(r)] = receive_piece_vertices(r, kPiece, positions);
-        normals = normals && heads[std::size_t(r)].normals;
-        triangles += heads[std::size_t(r)].triangles;
-        welder.add_vertices(std::size_t(r), std::move(positions));
-      }
-      welder.weld_vertices();
-      welder.reserve_triangles(triangles);
-      welder.add_attributes(0, piece.attributes);
-      welder.add_triangles(0, piece.triangles);
-      piece = {};
-      for (int r = 1; r < ranks; ++r) {
-        PieceHead& h = heads[std::size_t(r)];
-        const std::vector<Triangle> t = receive_piece_rest(h, r, kPiece);
-        welder.add_attributes(std::size_t(r), h.attributes);
-        h = {};
-        welder.add_triangles(std::size_t(r), t);
-      }
-      mesh = welder.finish(normals);
-    });
-  } else {
-    send_piece_vertices(piece, 0, kPiece);
-    send_piece_rest(piece, 0, kPiece);
-    piece = {};
+    if (!all_ok(error, rank_)) return false;
+    MPI_Bcast(&total_particles_, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+    stages_.emplace_back(in_parts_ ? "exchange" : "scatter", seconds_since(phase_start_));
+    return true;
   }
-  if (error) {
-    // Only rank 0 can fail here, in the weld (pieces that do not fit together), with ranks still
-    // waiting to send: nothing is written, every rank stops.
-    fmt::print(stderr, "meniscus: rank 0: error: {}\n", *error);
-    MPI_Abort(MPI_COMM_WORLD, 1);
-  }
-  stages.emplace_back(job.pieces ? "write_pieces" : streamed ? "gather_write" : "gather_weld", seconds_since(t3));
-  report.peak_bytes = double(peak_resident_bytes());
-  std::vector<RankReport> reports(static_cast<std::size_t>(ranks));
-  MPI_Gather(&report, kReportFields, MPI_DOUBLE, reports.data(), kReportFields, MPI_DOUBLE, 0, MPI_COMM_WORLD);
-  double slowest = 0;
-  for (const RankReport& r : reports) slowest = std::max(slowest, r.surface_seconds);
-  stages.insert(stages.end() - 1, {"surface", slowest});
 
-  // Rank 0 welds and writes.
-  int code = 0;
-  if (rank == 0) {
-    error = attempt([&] {
-      const auto t4 = std::chrono::steady_clock::now();
-      const Params p = result.params.spacing > 0 ? result.params : resolve_params(ParticleSet{{Vec3f{}}, {}}, given);
-      // The counts: the welded mesh's, or with --pieces the pieces' sums (seam vertices in each piece).
-      std::size_t vertices = 0, triangles = 0;
-      for (const RankReport& r : reports) vertices += std::size_t(r.owned_vertices), triangles += std::size_t(r.owned_triangles);
-      if (streamed) {
-        vertices = streamed_vertices;
-        reports[0].peak_bytes = double(peak_resident_bytes());  // rank 0's peak with the gather and the write
-      } else if (!job.pieces) {
-        vertices = mesh.vertices.size();
-        write_mesh(job.output, mesh);
-        mesh = {};
-        stages.emplace_back("write", seconds_since(t4));
-        reports[0].peak_bytes = double(peak_resident_bytes());  // rank 0's peak with the weld and the write
-      }
-      double total = 0, peak = 0;
-      for (const auto& [name, s] : stages) total += s;
-      for (const RankReport& r : reports) peak = std::max(peak, r.peak_bytes);
-      if (!job.quiet) {
-        fmt::print(stderr, "{} particles → {} vertices, {} triangles in {:.3f}s on {} ranks (slabs along {}, halo {:.4g} = "
-                           "{:.1f} spacings), peak memory per rank {:.0f} MB at most\n",
-                   total_particles, vertices, triangles, total, ranks, "xyz"[d.axis], d.halo,
-                   d.halo / p.spacing, peak / 1e6);
-        std::string line;
-        for (const auto& [name, s] : stages) line += fmt::format("{}{} {:.3f}s", line.empty() ? "" : ", ", name, s);
-        fmt::print(stderr, "  {}\n", line);
-        for (int r = 0; r < ranks; ++r) {
-          const RankReport& q = reports[std::size_t(r)];
-          fmt::print(stderr, "  rank {}: {:.0f} particles with its halo, owns {:.0f} triangles, surfaced in {:.3f}s, peak {:.0f} MB\n",
-                     r, q.particles, q.owned_triangles, q.surface_seconds, q.peak_bytes / 1e6);
-        }
-        fmt::print(stderr, "wrote {}{}{}\n", job.output,
-                   job.pieces ? fmt::format(" and its {} pieces {} … (vertices counted per piece: the seams twice)",
-                                            ranks, piece_path(job.output, 0))
-                              : "",
-                   job.stats.empty() ? "" : ", " + job.stats);
-      }
-      if (!job.stats.empty()) {
-        Result summary;
-        summary.params = p;
-        summary.stats = result.stats;
-        summary.stats.particles = total_particles;
-        summary.stats.vertices = vertices;
-        summary.stats.triangles = triangles;
-        summary.stats.peak_memory_bytes = std::size_t(peak);
-        summary.stats.stages.clear();
-        for (const auto& [name, s] : stages) summary.stats.stages.push_back({name, s});
-        nlohmann::ordered_json j = nlohmann::ordered_json::parse(stats_to_json(summary));
-        // What each rank removed is counted in its slab with the halo, where the halo's components
-        // are counted by two ranks: per rank only (the mesh does not depend on K; these counts do).
-        for (const char* key : {"removed_voids", "removed_blobs", "dropped_triangles"}) j[key] = nullptr;
-        j["ranks"] = ranks;
-        j["decomposition"] = {{"axis", std::string(1, "xyz"[d.axis])}, {"cuts", d.cuts}, {"halo", d.halo},
-                              {"halo_spacings", d.halo / p.spacing}};
-        nlohmann::ordered_json per_rank = nlohmann::ordered_json::array();
-        for (int r = 0; r < ranks; ++r) {
-          const RankReport& q = reports[std::size_t(r)];
-          per_rank.push_back({{"rank", r}, {"particles_with_halo", q.particles}, {"owned_vertices", q.owned_vertices},
-                              {"owned_triangles", q.owned_triangles}, {"surface_seconds", q.surface_seconds},
-                              {"peak_memory_bytes", q.peak_bytes}, {"removed_voids", q.removed_voids},
-                              {"removed_blobs", q.removed_blobs}, {"dropped_triangles", q.dropped_triangles}});
-        }
-        j["per_rank"] = per_rank;
-        const std::string text = j.dump(2) + "\n";
-        io::AtomicFile file(job.stats);
-        file.write(text.data(), text.size());
-        file.commit();
-      }
+  /// Every rank surfaces its slab and keeps the triangles it owns.
+  bool surface_slab() {
+    const auto t = std::chrono::steady_clock::now();
+    // A PLY output is written as the pieces come (each vertex once; rank 0 holds one piece at a
+    // time); other formats are welded whole on rank 0 first.
+    std::string extension = std::filesystem::path(job_.output).extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
+    streamed_ = !job_.pieces && extension == ".ply";
+    report_.particles = double(slab_.size());
+    const std::optional<std::string> error = attempt([&] {
+      if (slab_.size() == 0) return;  // a slab without particles owns no triangle
+      result_ = reconstruct(slab_, given_);
+      keep_owned(result_.mesh, d_, rank_, streamed_ ? &seams_ : nullptr);
+      piece_ = std::move(result_.mesh);
+      result_.mesh = {};
     });
+    slab_ = {};
+    report_.surface_seconds = seconds_since(t);
+    report_.owned_vertices = double(piece_.vertices.size());
+    report_.owned_triangles = double(piece_.triangles.size());
+    report_.removed_voids = double(result_.stats.removed_voids);
+    report_.removed_blobs = double(result_.stats.removed_blobs);
+    report_.dropped_triangles = double(result_.stats.dropped_triangles);
+    return all_ok(error, rank_);
+  }
+
+  /// The pieces to rank 0. --pieces: every rank writes its own; rank 0 the index. A PLY: streamed
+  /// to the file. Otherwise rank 0 welds the pieces as they come (PieceWelder): every piece's
+  /// positions first, then each piece's attributes and triangles, one piece at a time. Then the
+  /// ranks' reports to rank 0.
+  bool gather_pieces() {
+    const auto t = std::chrono::steady_clock::now();
+    std::optional<std::string> error;
+    if (job_.pieces) {
+      error = attempt([&] { io::write_vtp_mesh(piece_path(job_.output, rank_), piece_); });
+      if (!all_ok(error, rank_)) return false;
+      if (rank_ == 0) {
+        std::vector<std::string> names;
+        for (int r = 0; r < ranks_; ++r)
+          names.push_back(std::filesystem::path(piece_path(job_.output, r)).filename().string());
+        error = attempt([&] { io::write_pvtp_index(job_.output, names, piece_); });
+      }
+      if (!all_ok(error, rank_)) return false;
+      piece_ = {};
+    } else if (streamed_) {
+      StreamPart part = stream_part(std::move(piece_), seams_, rank_);
+      piece_ = {}, seams_ = {};
+      const uint64_t mine[2] = {part.written.vertices.size(), part.triangles.size()};
+      std::vector<uint64_t> counts(2 * std::size_t(ranks_));
+      MPI_Gather(mine, 2, MPI_UINT64_T, counts.data(), 2, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+      if (rank_ == 0) {
+        error = attempt([&] { streamed_vertices_ = write_streamed(job_.output, std::move(part), ranks_, counts); });
+      } else {
+        send_part(part, 0, kPiece);
+      }
+    } else if (rank_ == 0) {
+      error = attempt([&] { mesh_ = weld_pieces(); });
+    } else {
+      send_piece_vertices(piece_, 0, kPiece);
+      send_piece_rest(piece_, 0, kPiece);
+      piece_ = {};
+    }
     if (error) {
-      fmt::print(stderr, "meniscus: error: {}\n", *error);
-      code = 1;
+      // Only rank 0 can fail here, in the weld (pieces that do not fit together) or the streamed
+      // write, with ranks still waiting to send: nothing is written, every rank stops.
+      fmt::print(stderr, "meniscus: rank 0: error: {}\n", *error);
+      MPI_Abort(MPI_COMM_WORLD, 1);
+    }
+    stages_.emplace_back(job_.pieces ? "write_pieces" : streamed_ ? "gather_write" : "gather_weld", seconds_since(t));
+    report_.peak_bytes = double(peak_resident_bytes());
+    reports_.resize(static_cast<std::size_t>(ranks_));
+    MPI_Gather(&report_, kReportFields, MPI_DOUBLE, reports_.data(), kReportFields, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    double slowest = 0;
+    for (const RankReport& r : reports_) slowest = std::max(slowest, r.surface_seconds);
+    stages_.insert(stages_.end() - 1, {"surface", slowest});
+    return true;
+  }
+
+  /// Rank 0 writes the welded mesh, the summary and the stats; every rank returns its exit code.
+  int write_outputs() {
+    int code = 0;
+    if (rank_ == 0) {
+      const std::optional<std::string> error = attempt([&] { write_and_report(); });
+      if (error) {
+        fmt::print(stderr, "meniscus: error: {}\n", *error);
+        code = 1;
+      }
+    }
+    MPI_Bcast(&code, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    return code;
+  }
+
+ private:
+  TriangleMesh weld_pieces() {
+    PieceWelder welder(static_cast<std::size_t>(ranks_));
+    std::vector<PieceHead> heads(static_cast<std::size_t>(ranks_));
+    bool normals = piece_.normals.size() == piece_.vertices.size();
+    std::size_t triangles = piece_.triangles.size();
+    std::vector<Vec3f>().swap(piece_.normals);
+    welder.add_vertices(0, std::move(piece_.vertices));
+    for (int r = 1; r < ranks_; ++r) {
+      std::vector<Vec3f> positions;
+      heads[std::size_t(r)] = receive_piece_vertices(r, kPiece, positions);
+      normals = normals && heads[std::size_t(r)].normals;
+      triangles += heads[std::size_t(r)].triangles;
+      welder.add_vertices(std::size_t(r), std::move(positions));
+    }
+    welder.weld_vertices();
+    welder.reserve_triangles(triangles);
+    welder.add_attributes(0, piece_.attributes);
+    welder.add_triangles(0, piece_.triangles);
+    piece_ = {};
+    for (int r = 1; r < ranks_; ++r) {
+      PieceHead& h = heads[std::size_t(r)];
+      const std::vector<Triangle> t = receive_piece_rest(h, r, kPiece);
+      welder.add_attributes(std::size_t(r), h.attributes);
+      h = {};
+      welder.add_triangles(std::size_t(r), t);
+    }
+    return welder.finish(normals);
+  }
+
+  void write_and_report() {
+    const auto t4 = std::chrono::steady_clock::now();
+    const Params p = result_.params.spacing > 0 ? result_.params : resolve_params(ParticleSet{{Vec3f{}}, {}}, given_);
+    // The counts: the welded mesh's, or with --pieces the pieces' sums (seam vertices in each piece).
+    std::size_t vertices = 0, triangles = 0;
+    for (const RankReport& r : reports_)
+      vertices += std::size_t(r.owned_vertices), triangles += std::size_t(r.owned_triangles);
+    if (streamed_) {
+      vertices = streamed_vertices_;
+      reports_[0].peak_bytes = double(peak_resident_bytes());  // rank 0's peak with the gather and the write
+    } else if (!job_.pieces) {
+      vertices = mesh_.vertices.size();
+      write_mesh(job_.output, mesh_);
+      mesh_ = {};
+      stages_.emplace_back("write", seconds_since(t4));
+      reports_[0].peak_bytes = double(peak_resident_bytes());  // rank 0's peak with the weld and the write
+    }
+    double total = 0, peak = 0;
+    for (const auto& [name, s] : stages_) total += s;
+    for (const RankReport& r : reports_) peak = std::max(peak, r.peak_bytes);
+    if (!job_.quiet) {
+      fmt::print(stderr,
+                 "{} particles → {} vertices, {} triangles in {:.3f}s on {} ranks (slabs along {}, halo {:.4g} = "
+                 "{:.1f} spacings), peak memory per rank {:.0f} MB at most\n",
+                 total_particles_, vertices, triangles, total, ranks_, "xyz"[d_.axis], d_.halo, d_.halo / p.spacing,
+                 peak / 1e6);
+      std::string line;
+      for (const auto& [name, s] : stages_) line += fmt::format("{}{} {:.3f}s", line.empty() ? "" : ", ", name, s);
+      fmt::print(stderr, "  {}\n", line);
+      for (int r = 0; r < ranks_; ++r) {
+        const RankReport& q = reports_[std::size_t(r)];
+        fmt::print(
+            stderr,
+            "  rank {}: {:.0f} particles with its halo, owns {:.0f} triangles, surfaced in {:.3f}s, peak {:.0f} MB\n",
+            r, q.particles, q.owned_triangles, q.surface_seconds, q.peak_bytes / 1e6);
+      }
+      fmt::print(stderr, "wrote {}{}{}\n", job_.output,
+                 job_.pieces ? fmt::format(" and its {} pieces {} … (vertices counted per piece: the seams twice)",
+                                           ranks_, piece_path(job_.output, 0))
+                             : "",
+                 job_.stats.empty() ? "" : ", " + job_.stats);
+    }
+    if (!job_.stats.empty()) {
+      Result summary;
+      summary.params = p;
+      summary.stats = result_.stats;
+      summary.stats.particles = total_particles_;
+      summary.stats.vertices = vertices;
+      summary.stats.triangles = triangles;
+      summary.stats.peak_memory_bytes = std::size_t(peak);
+      summary.stats.stages.clear();
+      for (const auto& [name, s] : stages_) summary.stats.stages.push_back({name, s});
+      nlohmann::ordered_json j = nlohmann::ordered_json::parse(stats_to_json(summary));
+      // What each rank removed is counted in its slab with the halo, where the halo's components
+      // are counted by two ranks: per rank only (the mesh does not depend on K; these counts do).
+      for (const char* key : {"removed_voids", "removed_blobs", "dropped_triangles"}) j[key] = nullptr;
+      j["ranks"] = ranks_;
+      j["decomposition"] = {{"axis", std::string(1, "xyz"[d_.axis])},
+                            {"cuts", d_.cuts},
+                            {"halo", d_.halo},
+                            {"halo_spacings", d_.halo / p.spacing}};
+      nlohmann::ordered_json per_rank = nlohmann::ordered_json::array();
+      for (int r = 0; r < ranks_; ++r) {
+        const RankReport& q = reports_[std::size_t(r)];
+        per_rank.push_back({{"rank", r},
+                            {"particles_with_halo", q.particles},
+                            {"owned_vertices", q.owned_vertices},
+                            {"owned_triangles", q.owned_triangles},
+                            {"surface_seconds", q.surface_seconds},
+                            {"peak_memory_bytes", q.peak_bytes},
+                            {"removed_voids", q.removed_voids},
+                            {"removed_blobs", q.removed_blobs},
+                            {"dropped_triangles", q.dropped_triangles}});
+      }
+      j["per_rank"] = per_rank;
+      const std::string text = j.dump(2) + "\n";
+      io::AtomicFile file(job_.stats);
+      file.write(text.data(), text.size());
+      file.commit();
     }
   }
-  MPI_Bcast(&code, 1, MPI_INT, 0, MPI_COMM_WORLD);
-  return code;
+
+  const MpiJob& job_;
+  const int rank_, ranks_;
+  const Reduce reduce_;
+  const std::chrono::steady_clock::time_point t0_ = std::chrono::steady_clock::now();
+  std::chrono::steady_clock::time_point phase_start_;
+  std::vector<std::pair<std::string, double>> stages_;  // rank 0's view of the job
+  bool in_parts_ = false, streamed_ = false;
+  ParticleSet all_;  // rank 0's whole frame, or each rank's part
+  Params given_;     // the job's parameters with the frame-wide estimates
+  std::size_t total_particles_ = 0, streamed_vertices_ = 0;
+  Decomposition d_;
+  ParticleSet slab_;
+  Seams seams_;
+  TriangleMesh piece_, mesh_;
+  Result result_;
+  RankReport report_;
+  std::vector<RankReport> reports_;
+};
+
+}  // namespace
+
+int run_surface_mpi(const MpiSession& session, const MpiJob& job) {
+  RankRun run(session, job);
+  if (!run.read_frame() || !run.cut_slabs() || !run.send_slabs() || !run.surface_slab() || !run.gather_pieces()) return 1;
+  return run.write_outputs();
 }
 
 }  // namespace meniscus::cli

@@ -8,10 +8,12 @@
 
 #include "cli.hpp"
 #include "common/clock.hpp"
-#include "field/vdb_export.hpp"
+#include "io/vdb_export.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/messages.hpp"
 #include "meniscus/render.hpp"
+#include "post/clip.hpp"
+#include "post/decimate.hpp"
 #include "mpi_surface.hpp"
 #include "progress.hpp"
 
@@ -185,6 +187,9 @@ int run_surface(const CLI::App& cmd, SurfaceArgs& a, const MpiSession& mpi) {
     throw InvalidParameter(fmt::format("--preview '{}': previews are PNG pictures (name it .png)", printable(a.preview_path)));
   if (!a.field_path.empty() && !has_openvdb())
     throw InvalidParameter("--save-field: this meniscus was built without OpenVDB (install libopenvdb-dev and rebuild)");
+  // What an optional dependency does, refused before the particles are read.
+  if (const char* why = clip_cap_unavailable(); why && a.params.clip_cap) throw InvalidParameter(why);
+  if (const char* why = decimate_unavailable(); why && a.params.decimate > 0) throw InvalidParameter(why);
   if (mpi.active()) return run_surface_ranks(mpi, a);
   if (launched_ranks() > 1)
     throw InvalidParameter(fmt::format("started by an MPI launcher as one of {} processes, but this meniscus was built "

@@ -7,7 +7,7 @@
 #include <cstddef>
 
 #include "meniscus/mesh.hpp"
-#include "mesh/triangle_bvh.hpp"
+#include "quality/triangle_bvh.hpp"
 
 namespace meniscus {
 
@@ -40,5 +40,9 @@ ClipOutcome clip_to_box(TriangleMesh& mesh, const ClipBox& box, bool cap);
 /// shared, so the result is closed; a corner used becomes a new vertex (its face's normal, the
 /// attributes of a neighbour). Adds to outcome.cap_triangles and sets outcome.cap_defects.
 void cap_box_faces(TriangleMesh& mesh, const ClipBox& box, const TriangleBvh& inside, ClipOutcome& outcome);
+
+/// Null where this build can cap; otherwise why not (CGAL, an optional dependency, was not found):
+/// then cap_box_faces throws InvalidParameter with it, and reconstruct() refuses clip_cap before any work.
+const char* clip_cap_unavailable();
 
 }  // namespace meniscus

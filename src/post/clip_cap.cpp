@@ -38,6 +38,8 @@ Vec3f corner(const ClipBox& box, uint32_t k) {
 
 }  // namespace
 
+const char* clip_cap_unavailable() { return nullptr; }
+
 void cap_box_faces(TriangleMesh& mesh, const ClipBox& box, const TriangleBvh& inside, ClipOutcome& outcome) {
   // The cut's curves: the directed edges no triangle runs the other way.
   const std::vector<EdgeKey> open = open_edges(sorted_directed_edges(mesh.triangles));

@@ -17,7 +17,7 @@
 #include "mesh/compact.hpp"
 #include "mesh/components.hpp"
 #include "mesh/directed_edges.hpp"
-#include "mesh/triangle_bvh.hpp"
+#include "quality/triangle_bvh.hpp"
 
 namespace meniscus {
 
@@ -390,6 +390,8 @@ Measured simplify_patches(const std::vector<Vec3f>& x, const std::vector<uint32_
 }
 
 }  // namespace
+
+const char* decimate_unavailable() { return nullptr; }
 
 DecimateOutcome decimate(TriangleMesh& mesh, double max_error) {
   DecimateOutcome outcome;

@@ -41,4 +41,8 @@ struct DecimateOutcome {
 /// max_error ≤ 0 leaves the mesh as it is.
 DecimateOutcome decimate(TriangleMesh& mesh, double max_error);
 
+/// Null where this build can decimate; otherwise why not (meshoptimizer, an optional dependency, was
+/// not found): then decimate throws InvalidParameter with it, and reconstruct() refuses decimate first.
+const char* decimate_unavailable();
+
 }  // namespace meniscus

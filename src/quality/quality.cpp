@@ -10,7 +10,7 @@
 #include <numbers>
 
 #include "grid/hash_grid.hpp"
-#include "mesh/triangle_bvh.hpp"
+#include "quality/triangle_bvh.hpp"
 #include "mesh/volume_impl.hpp"
 
 namespace meniscus {

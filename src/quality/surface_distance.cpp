@@ -1,5 +1,5 @@
 // meniscus — point-to-surface distance (frame-to-frame flicker, docs/cli.md "Sequences"): closest points on
-// triangles (Ericson 2005 §5.1.5) found through Embree's BVH (mesh/triangle_bvh.hpp).
+// triangles (Ericson 2005 §5.1.5) found through Embree's BVH (quality/triangle_bvh.hpp).
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_reduce.h>
@@ -12,7 +12,7 @@
 #include "common/for_each.hpp"
 #include "meniscus/quality.hpp"
 #include "mesh/compact.hpp"
-#include "mesh/triangle_bvh.hpp"
+#include "quality/triangle_bvh.hpp"
 
 namespace meniscus {
 namespace {

@@ -16,7 +16,7 @@
 #include <random>
 #include <thread>
 
-#include "field/vdb_export.hpp"
+#include "io/vdb_export.hpp"
 #include "io/atomic_file.hpp"
 #include "io/file_bytes.hpp"
 #include "io/vtu.hpp"

@@ -1,4 +1,4 @@
-// Tests of the BVH queries (mesh/triangle_bvh.hpp) and of the point-to-surface distance built on
+// Tests of the BVH queries (quality/triangle_bvh.hpp) and of the point-to-surface distance built on
 // them: exact answers against brute force, and the work of a query bounded where the old grid
 // search was not (far points, unrelated surfaces, a droplet at the centre of a hollow shell).
 #include <gtest/gtest.h>
@@ -10,7 +10,7 @@
 
 #include "meniscus/quality.hpp"
 #include "mesh/closest_point_impl.hpp"
-#include "mesh/triangle_bvh.hpp"
+#include "quality/triangle_bvh.hpp"
 #include "support/test_support.hpp"
 
 namespace meniscus {

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <filesystem>
 
-#include "field/vdb_export.hpp"
+#include "io/vdb_export.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "support/test_support.hpp"

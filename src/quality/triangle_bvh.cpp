@@ -1,6 +1,6 @@
 // meniscus — closest-point and inside queries through Embree's BVH (Wald et al. 2014); the
 // per-triangle tests are ours (mesh/closest_point_impl.hpp, mesh/ray_parity_impl.hpp).
-#include "mesh/triangle_bvh.hpp"
+#include "quality/triangle_bvh.hpp"
 
 #include <embree3/rtcore.h>
 #include <fmt/format.h>
@@ -21,13 +21,20 @@ namespace {
 
 const char* embree_error_name(RTCError e) {
   switch (e) {
-    case RTC_ERROR_NONE: return "no error";
-    case RTC_ERROR_INVALID_ARGUMENT: return "invalid argument";
-    case RTC_ERROR_INVALID_OPERATION: return "invalid operation";
-    case RTC_ERROR_OUT_OF_MEMORY: return "out of memory";
-    case RTC_ERROR_UNSUPPORTED_CPU: return "unsupported CPU";
-    case RTC_ERROR_CANCELLED: return "cancelled";
-    default: return "unknown error";
+    case RTC_ERROR_NONE:
+      return "no error";
+    case RTC_ERROR_INVALID_ARGUMENT:
+      return "invalid argument";
+    case RTC_ERROR_INVALID_OPERATION:
+      return "invalid operation";
+    case RTC_ERROR_OUT_OF_MEMORY:
+      return "out of memory";
+    case RTC_ERROR_UNSUPPORTED_CPU:
+      return "unsupported CPU";
+    case RTC_ERROR_CANCELLED:
+      return "cancelled";
+    default:
+      return "unknown error";
   }
 }
 
@@ -43,7 +50,9 @@ RTCDevice shared_device() {
   static RTCDevice device = nullptr;
   std::call_once(once, [] {
     device = rtcNewDevice(nullptr);
-    if (!device) throw ResourceError(fmt::format("Embree: rtcNewDevice failed: {}", embree_error_name(rtcGetDeviceError(nullptr))));
+    if (!device)
+      throw ResourceError(
+          fmt::format("Embree: rtcNewDevice failed: {}", embree_error_name(rtcGetDeviceError(nullptr))));
   });
   return device;
 }
@@ -126,12 +135,15 @@ TriangleBvh::TriangleBvh(std::span<const Vec3f> vertices, std::span<const Triang
         for (std::size_t i = r.begin(); i != r.end(); ++i)
           for (uint32_t k : triangles[i]) {
             if (k >= vertices.size())
-              throw std::invalid_argument(fmt::format("TriangleBvh: triangle {} names vertex {} of {}", i, k, vertices.size()));
+              throw std::invalid_argument(
+                  fmt::format("TriangleBvh: triangle {} names vertex {} of {}", i, k, vertices.size()));
             b.lo = min(b.lo, vertices[k]), b.hi = max(b.hi, vertices[k]);
           }
         return b;
       },
-      [](Box a, const Box& b) { return Box{min(a.lo, b.lo), max(a.hi, b.hi)}; });
+      [](Box a, const Box& b) {
+        return Box{min(a.lo, b.lo), max(a.hi, b.hi)};
+      });
   impl_->frame = ray_parity_frame(box.lo, box.hi, triangles.size());
   // The pad exceeds the float rounding of any coordinate in the box and the ray's nudge
   // (at most 2.4e-7 of the extent), so no box Embree tests in float misses a candidate.

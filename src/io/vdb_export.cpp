@@ -5,7 +5,7 @@
 #include <sstream>
 
 #include "field/distance_field.hpp"
-#include "field/vdb_export.hpp"
+#include "io/vdb_export.hpp"
 #include "io/atomic_file.hpp"
 #include "meniscus/errors.hpp"
 

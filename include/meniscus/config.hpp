@@ -30,8 +30,8 @@ std::vector<std::string> preset_names();
 void apply_preset(Params& params, std::string_view name);
 
 /// Smoothness s in [0, 1] onto the smoothing schedule (see docs/cli.md "Artist controls"): steps_a =
-/// round(40 s), steps_b = round(30 s), steps_free = round(6 s); s = 0.5 gives the defaults 20,
-/// 15, 3 and s = 0 the mesh as extracted. Throws InvalidParameter naming "smoothness" outside [0, 1].
+/// round(40 s), steps_b = round(20 s), steps_free = round(6 s); s = 0.5 gives the defaults 20,
+/// 10, 3 and s = 0 the mesh as extracted. Throws InvalidParameter naming "smoothness" outside [0, 1].
 void apply_smoothness(Params& params, double smoothness);
 
 /// Detail k in (0, 8] onto the field resolution: sets params.detail and resets voxel_size to 0,

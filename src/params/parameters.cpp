@@ -476,6 +476,14 @@ json parameter_table_json() {
     if (!s.choices.empty()) j["choices"] = s.choices;
     if (s.count) j["count"] = s.count;
     if (s.control) j["control"] = true;
+    // The value each preset gives the parameter, where it differs from the default.
+    json presets = json::object();
+    for (const std::string& name : preset_names()) {
+      Params preset;
+      apply_preset(preset, name);
+      if (!s.control && get_parameter(preset, s) != j["default"]) presets[name] = get_parameter(preset, s);
+    }
+    if (!presets.empty()) j["presets"] = std::move(presets);
     out.push_back(std::move(j));
   }
   return out;

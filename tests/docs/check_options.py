@@ -19,6 +19,14 @@ END = "<!-- end of options -->"
 
 
 def default_text(p):
+    text = plain_default(p)
+    if p.get("presets"):  # what the presets set, where they differ from the default
+        text += " (" + ", ".join(f"{name}: {value:g}" if isinstance(value, float) else f"{name}: {value}"
+                                 for name, value in p["presets"].items()) + ")"
+    return text
+
+
+def plain_default(p):
     if p.get("control"):
         return "—"
     value = p.get("default")

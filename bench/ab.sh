@@ -18,14 +18,22 @@ frames=("$root/tests/data/ply/dam_break_frame_23_24389_particles.ply"
         "$root/tests/data/ply/sphysics_dam_break_IPART_29814_particles.ply"
         "$work/splash_300k.ply" "$work/splash_1m.ply")
 
+options=("$@")
+measure() {  # measure CLI FRAME OUT: sets s (wall seconds) and kb (peak RSS); a failed run ends the bench
+  if ! /usr/bin/time -f "%e %M" -o "$work/time" "$1" surface "$2" -q -o "$3" "${options[@]}" >/dev/null 2>"$work/err"; then
+    echo "FAIL: $1 surface $2 ${options[*]}: $(cat "$work/err")" >&2
+    exit 1
+  fi
+  read -r s kb < <(tail -n 1 "$work/time")
+}
 echo "# $(nproc) threads, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//'), best of $repeat"
 printf "%-44s %10s %10s %7s %10s %10s %7s %s\n" frame "A s" "B s" "B/A" "A MB" "B MB" "B/A" mesh
 for frame in "${frames[@]}"; do
   best_a=1e9 best_b=1e9 peak_a=0 peak_b=0
   for ((i = 0; i < repeat; ++i)); do
-    read -r s kb < <(/usr/bin/time -f "%e %M" "$a" surface "$frame" -q -o "$work/a.ply" "$@" 2>&1 >/dev/null | tail -1)
+    measure "$a" "$frame" "$work/a.ply"
     best_a=$(awk -v x="$s" -v y="$best_a" 'BEGIN { print (x < y ? x : y) }'); (( kb > peak_a )) && peak_a=$kb
-    read -r s kb < <(/usr/bin/time -f "%e %M" "$b" surface "$frame" -q -o "$work/b.ply" "$@" 2>&1 >/dev/null | tail -1)
+    measure "$b" "$frame" "$work/b.ply"
     best_b=$(awk -v x="$s" -v y="$best_b" 'BEGIN { print (x < y ? x : y) }'); (( kb > peak_b )) && peak_b=$kb
   done
   same=$(cmp -s "$work/a.ply" "$work/b.ply" && echo "same bytes" || echo "DIFFERENT")

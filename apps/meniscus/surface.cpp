@@ -12,8 +12,7 @@
 #include "meniscus/errors.hpp"
 #include "meniscus/messages.hpp"
 #include "meniscus/render.hpp"
-#include "post/clip.hpp"
-#include "post/decimate.hpp"
+#include "post/available.hpp"
 #include "mpi_surface.hpp"
 #include "progress.hpp"
 
@@ -188,8 +187,7 @@ int run_surface(const CLI::App& cmd, SurfaceArgs& a, const MpiSession& mpi) {
   if (!a.field_path.empty() && !has_openvdb())
     throw InvalidParameter("--save-field: this meniscus was built without OpenVDB (install libopenvdb-dev and rebuild)");
   // What an optional dependency does, refused before the particles are read.
-  if (const char* why = clip_cap_unavailable(); why && a.params.clip_cap) throw InvalidParameter(why);
-  if (const char* why = decimate_unavailable(); why && a.params.decimate > 0) throw InvalidParameter(why);
+  check_post_processing_available(a.params);
   if (mpi.active()) return run_surface_ranks(mpi, a);
   if (launched_ranks() > 1)
     throw InvalidParameter(fmt::format("started by an MPI launcher as one of {} processes, but this meniscus was built "

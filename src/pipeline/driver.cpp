@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "post/available.hpp"
 #include "post/clip.hpp"
 #include "post/strays.hpp"
 #include "post/decimate.hpp"
@@ -66,9 +67,7 @@ const Attribute* check_inputs(const ParticleSet& particles, const Params& params
                                          available.empty() ? "none" : available));
     }
   // What an optional dependency does, refused before any work where this build has not got it.
-  if (const char* why = clip_cap_unavailable(); why && params.clip_cap && !params.clip_box.empty())
-    throw InvalidParameter(why);
-  if (const char* why = decimate_unavailable(); why && params.decimate > 0) throw InvalidParameter(why);
+  check_post_processing_available(params);
   const Attribute* velocity = velocity_attribute(particles);
   if (params.velocity_weighted && !velocity)
     throw InvalidParameter("velocity_weighted: the particles have no velocity attribute (v, vel or velocity with 3 "

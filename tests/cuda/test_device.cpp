@@ -576,15 +576,7 @@ TEST_P(CudaParityFrame, EmulatedDeviceMeshesAreTheStoredBits) {
       for (const Attribute& a : ps.attributes) p.transfer.push_back(a.name);
     const Result r = reconstruct(ps, p);
     ASSERT_EQ(r.stats.backend, "cuda");
-    const std::string key = "emulated/" + frame + "/" + v.name;
-    const uint64_t sum = test::mesh_checksum(r.mesh);
-    if (test::writing_checksums()) {
-      test::record_checksum(key, sum);
-      continue;
-    }
-    const uint64_t stored = test::stored_checksum(key);
-    ASSERT_NE(stored, 0u) << "no stored checksum for " << key;
-    EXPECT_EQ(sum, stored) << key << ": the mesh is not the stored one";
+    test::expect_stored_checksum("emulated/" + frame + "/" + v.name, r.mesh);
   }
 }
 

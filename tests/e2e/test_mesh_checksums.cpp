@@ -4,9 +4,6 @@
 // a change that means to alter meshes: say which and why in its commit).
 #include <gtest/gtest.h>
 
-#include <algorithm>
-#include <filesystem>
-
 #include <fmt/format.h>
 
 #include "meniscus/io.hpp"
@@ -16,14 +13,6 @@
 
 namespace meniscus {
 namespace {
-
-std::vector<std::string> frames() {
-  std::vector<std::string> out;
-  for (const auto& e : std::filesystem::directory_iterator(test::data_file("ply")))
-    if (e.path().extension() == ".ply") out.push_back(e.path().filename().string());
-  std::sort(out.begin(), out.end());
-  return out;
-}
 
 class Checksum : public ::testing::TestWithParam<std::string> {};
 
@@ -38,23 +27,12 @@ TEST_P(Checksum, EveryVariantOfTheFrameIsTheStoredMeshBitForBit) {
     if (v.transfer_all)
       for (const Attribute& a : ps.attributes) p.transfer.push_back(a.name);
     const Result r = reconstruct(ps, p);
-    const std::string key = fmt::format("cpu/{}/{}", frame, v.name);
-    const uint64_t sum = test::mesh_checksum(r.mesh);
-    if (test::writing_checksums()) {
-      test::record_checksum(key, sum);
-      continue;
-    }
-    const uint64_t stored = test::stored_checksum(key);
-    ASSERT_NE(stored, 0u) << "no stored checksum for " << key;
-    EXPECT_EQ(fmt::format("{:016x}", sum), fmt::format("{:016x}", stored))
-        << key << ": the mesh is not the stored one (" << r.mesh.vertices.size() << " vertices, "
-        << r.mesh.triangles.size() << " triangles)";
+    test::expect_stored_checksum(fmt::format("cpu/{}/{}", frame, v.name), r.mesh);
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Data, Checksum, ::testing::ValuesIn(frames()), [](const auto& test_param) {
-  return test_param.param.substr(0, test_param.param.find('.'));
-});
+INSTANTIATE_TEST_SUITE_P(Data, Checksum, ::testing::ValuesIn(test::real_frames()),
+                         [](const auto& test_param) { return test_param.param.substr(0, test_param.param.find('.')); });
 
 }  // namespace
 }  // namespace meniscus

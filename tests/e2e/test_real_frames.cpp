@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 #include <limits>
 
 #include "meniscus/io.hpp"
@@ -15,14 +14,6 @@
 
 namespace meniscus {
 namespace {
-
-std::vector<std::string> frames() {
-  std::vector<std::string> out;
-  for (const auto& e : std::filesystem::directory_iterator(test::data_file("ply")))
-    if (e.path().extension() == ".ply") out.push_back(e.path().filename().string());
-  std::sort(out.begin(), out.end());
-  return out;
-}
 
 class RealFrame : public ::testing::TestWithParam<std::string> {};
 
@@ -67,7 +58,7 @@ TEST_P(RealFrame, MarchingCubesIsWatertightButHasLowValence) {
   EXPECT_GT(double(v.below_5) / double(r.mesh.vertices.size()), 0.02);
 }
 
-INSTANTIATE_TEST_SUITE_P(Data, RealFrame, ::testing::ValuesIn(frames()), [](const auto& test_info) {
+INSTANTIATE_TEST_SUITE_P(Data, RealFrame, ::testing::ValuesIn(test::real_frames()), [](const auto& test_info) {
   std::string name = test_info.param.substr(0, test_info.param.find('.'));
   for (char& ch : name)
     if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';

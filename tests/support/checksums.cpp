@@ -8,6 +8,7 @@
 #include <mutex>
 
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "support/test_support.hpp"
@@ -108,6 +109,19 @@ void record_checksum(const std::string& key, uint64_t value) {
 bool writing_checksums() {
   const char* w = std::getenv("MENISCUS_WRITE_CHECKSUMS");
   return w && std::strcmp(w, "1") == 0;
+}
+
+void expect_stored_checksum(const std::string& key, const TriangleMesh& mesh) {
+  const uint64_t sum = mesh_checksum(mesh);
+  if (writing_checksums()) {
+    record_checksum(key, sum);
+    return;
+  }
+  const uint64_t stored = stored_checksum(key);
+  ASSERT_NE(stored, 0u) << "no stored checksum for " << key;
+  EXPECT_EQ(fmt::format("{:016x}", sum), fmt::format("{:016x}", stored))
+      << key << ": the mesh is not the stored one (" << mesh.vertices.size() << " vertices, " << mesh.triangles.size()
+      << " triangles)";
 }
 
 }  // namespace meniscus::test

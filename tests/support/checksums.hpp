@@ -31,4 +31,8 @@ uint64_t stored_checksum(const std::string& key);
 void record_checksum(const std::string& key, uint64_t value);
 bool writing_checksums();
 
+/// Holds the mesh made for `key` to its stored checksum (a failure names the key and the mesh's
+/// counts); with MENISCUS_WRITE_CHECKSUMS=1, stores its checksum instead.
+void expect_stored_checksum(const std::string& key, const TriangleMesh& mesh);
+
 }  // namespace meniscus::test

@@ -12,6 +12,7 @@
 
 #include <cerrno>
 #include <chrono>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 
@@ -202,5 +203,13 @@ bool large_for_sanitizers(std::string_view frame_name) {
 
 std::string data_file(const std::string& name) { return std::string(MENISCUS_TEST_DATA) + "/" + name; }
 std::string cli() { return MENISCUS_CLI; }
+
+std::vector<std::string> real_frames() {
+  std::vector<std::string> out;
+  for (const auto& e : std::filesystem::directory_iterator(data_file("ply")))
+    if (e.path().extension() == ".ply") out.push_back(e.path().filename().string());
+  std::sort(out.begin(), out.end());
+  return out;
+}
 
 }  // namespace meniscus::test

@@ -89,6 +89,8 @@ bool large_for_sanitizers(std::string_view frame_name);
 
 /// Path of a bundled test data file (tests/data/NAME).
 std::string data_file(const std::string& name);
+/// The names of the bundled real frames (tests/data/ply/*.ply), sorted.
+std::vector<std::string> real_frames();
 /// Path of the meniscus CLI built with the tests.
 std::string cli();
 

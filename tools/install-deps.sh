@@ -14,7 +14,7 @@ done
 packages=(
   build-essential cmake ninja-build pkg-config zip
   libtbb-dev libembree-dev libfmt-dev nlohmann-json3-dev libcli11-dev zlib1g-dev libblosc-dev libstb-dev
-  libopenvdb-dev libboost-dev libmeshoptimizer-dev libcgal-dev
+  libopenvdb-dev libboost-dev libcgal-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   clang libclang-rt-14-dev
   python3 python3-numpy python3-meshio python3-vtk9 python3-dev python3-pytest pybind11-dev

@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 seconds=${FUZZ_SECONDS:-30}
 build=build/fuzz
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ -DMENISCUS_FUZZ=ON -DMENISCUS_CUDA=OFF -DMENISCUS_PYTHON=OFF \
-  -DMENISCUS_OPENVDB=OFF -DMENISCUS_CGAL=OFF -DMENISCUS_MESHOPTIMIZER=OFF >/dev/null  # the readers need none of these
+  -DMENISCUS_OPENVDB=OFF -DMENISCUS_CGAL=OFF >/dev/null  # the readers need none of these
 cmake --build "$build" -j "$(nproc)" --target fuzzers  # the readers and the fuzz targets, not the whole library
 
 seed() {  # the real files of a format as seeds, or a tiny valid file where there is none

@@ -13,7 +13,6 @@
 #include "meniscus/reconstruct.hpp"
 #include "mpi_surface.hpp"
 #include "post/clip.hpp"
-#include "post/decimate.hpp"
 
 namespace meniscus::cli {
 
@@ -45,7 +44,6 @@ int run_info(const InfoArgs& a) {
   }
   fmt::print("openvdb: {}\n", has_openvdb() ? "yes (--save-field writes .vdb level sets)" : "no");
   fmt::print("cgal: {}\n", clip_cap_unavailable() ? "no (--clip-cap refused)" : "yes (--clip-cap closes the cut)");
-  fmt::print("meshoptimizer: {}\n", decimate_unavailable() ? "no (--decimate refused)" : "yes (--decimate simplifies)");
   fmt::print("mpi: {}\n", mpi_built() ? "yes (mpirun -n K meniscus surface spreads one frame over K ranks)"
                                             : "no (built without MPI)");
   fmt::print("particle formats: {}\n", fmt::join(particle_formats(), " "));

@@ -100,9 +100,9 @@ struct Params {
   std::vector<double> clip_box;
   /// Close the clip_box cut with the box's faces, so the mesh stays watertight.
   bool clip_cap = false;
-  /// Simplify the finished mesh (meshoptimizer's edge collapses) while the distance between the
-  /// simplified and the full surface stays at most this many spacings, measured (DecimateOutcome);
-  /// 0: no simplification. 0.02 keeps flat water to a fiftieth of a spacing.
+  /// Simplify the finished mesh (edge collapses and flips that keep valence 5-9 and no new angle
+  /// under 15°) while the simplified surface stays within this many spacings of the full one
+  /// (post/decimate.hpp); 0: no simplification. 0.02 keeps flat water to a fiftieth of a spacing.
   double decimate = 0;
   std::vector<std::string> transfer;   ///< particle attributes to carry onto the vertices
   double transfer_radius = 0;          ///< 0: 2 d

@@ -57,9 +57,8 @@ struct Stats {
   std::size_t cap_triangles = 0;       ///< clip_cap: triangles added on the box's faces
   std::size_t cap_open_edges = 0;      ///< clip_cap: edges left open (0: watertight; see warnings)
   std::size_t decimated_triangles = 0; ///< decimate: triangles the simplification removed
-  double decimate_error = 0;           ///< decimate: the largest distance measured between the surfaces
-  std::size_t decimate_kept_whole = 0; ///< decimate: components kept unsimplified to hold the bound
-  int decimate_rounds = 0;             ///< decimate: simplifications run (post/decimate.hpp)
+  double decimate_error = 0;           ///< decimate: the largest distance of the full surface's points from the simplified one
+  int decimate_rounds = 0;             ///< decimate: passes over shifted patch grids (post/decimate.hpp)
   std::size_t peak_memory_bytes = 0;   ///< peak resident set size of the process
   int threads = 0;
   std::string threads_from;            ///< where the thread count came from: --threads, the CPU affinity, Slurm

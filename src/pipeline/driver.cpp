@@ -164,7 +164,6 @@ void post_process(const StagePlan& plan, const ParticleSet& particles, Result& r
     const DecimateOutcome d = timer.run("decimate", [&] { return decimate(mesh, plan.decimate_bound); });
     stats.decimated_triangles = d.triangles_before - d.triangles_after;
     stats.decimate_error = d.max_error;
-    stats.decimate_kept_whole = d.kept_whole;
     stats.decimate_rounds = d.rounds;
   }
 }

@@ -32,7 +32,6 @@ std::string stats_to_json(const Result& result) {
   j["cap_open_edges"] = s.cap_open_edges;
   j["decimated_triangles"] = s.decimated_triangles;
   j["decimate_error"] = s.decimate_error;
-  j["decimate_kept_whole"] = s.decimate_kept_whole;
   j["decimate_rounds"] = s.decimate_rounds;
   j["flipped_triangles"] = s.flipped_triangles;
   j["ranks"] = 1;  // one process (an MPI run over K ranks says K: docs/cluster.md)

@@ -2,14 +2,12 @@
 
 #include "meniscus/errors.hpp"
 #include "post/clip.hpp"
-#include "post/decimate.hpp"
 
 namespace meniscus {
 
 void check_post_processing_available(const Params& params) {
   if (const char* why = clip_cap_unavailable(); why && params.clip_cap && !params.clip_box.empty())
     throw InvalidParameter(why);
-  if (const char* why = decimate_unavailable(); why && params.decimate > 0) throw InvalidParameter(why);
 }
 
 }  // namespace meniscus

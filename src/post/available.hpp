@@ -1,5 +1,5 @@
-// meniscus — what post-processing this build can do: the optional libraries behind --clip-cap
-// (CGAL) and --decimate (meshoptimizer).
+// meniscus — what post-processing this build can do: the optional library behind --clip-cap
+// (CGAL).
 #pragma once
 
 #include "meniscus/params.hpp"

@@ -7,12 +7,14 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <random>
 #include <string>
 #include <vector>
 
 #include "memory.hpp"
 #include "meniscus/io.hpp"
 #include "meniscus/memory.hpp"
+#include "meniscus/quality.hpp"
 #include "meniscus/reconstruct.hpp"
 #include "metrics.hpp"
 #include "openvdb_baseline.hpp"
@@ -34,7 +36,37 @@ struct Column {
   // Throughputs (0: not applicable to this column).
   double voxels_per_s = 0, iterations_per_s = 0;
   std::size_t field_samples = 0;
+  TriangleMesh mesh;             ///< kept for meniscus' full and decimated columns (their distance)
+  double distance_to_full = -1;  ///< the decimated column: the largest distance to the full mesh / d
 };
+
+/// `count` points on the triangles of `mesh`, area-weighted, deterministic.
+std::vector<Vec3f> points_on(const TriangleMesh& mesh, std::size_t count) {
+  std::vector<double> area(mesh.triangles.size());
+  for (std::size_t t = 0; t < area.size(); ++t) {
+    const Triangle& c = mesh.triangles[t];
+    area[t] =
+        double(length(cross(mesh.vertices[c[1]] - mesh.vertices[c[0]], mesh.vertices[c[2]] - mesh.vertices[c[0]])));
+  }
+  std::mt19937 rng(1);
+  std::discrete_distribution<std::size_t> pick(area.begin(), area.end());
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  std::vector<Vec3f> points = mesh.vertices;
+  for (std::size_t i = 0; i < count && !area.empty(); ++i) {
+    const Triangle& c = mesh.triangles[pick(rng)];
+    float u = unit(rng), v = unit(rng);
+    if (u + v > 1) u = 1 - u, v = 1 - v;
+    const Vec3f a = mesh.vertices[c[0]];
+    points.push_back(a + (mesh.vertices[c[1]] - a) * u + (mesh.vertices[c[2]] - a) * v);
+  }
+  return points;
+}
+
+/// The largest distance between two meshes, both ways: every vertex and `count` random points of
+/// each to the other (Embree's BVH, exact point–triangle distances).
+double distance_between(const TriangleMesh& a, const TriangleMesh& b, std::size_t count) {
+  return std::max(distance_to_surface(points_on(a, count), b).max, distance_to_surface(points_on(b, count), a).max);
+}
 
 Column run_meniscus(const std::string& name, const Scene& scene, const Params& params, int repeat,
                     std::size_t samples) {
@@ -55,6 +87,7 @@ Column run_meniscus(const std::string& name, const Scene& scene, const Params& p
   c.smooth_parts = {{"setup", sm.setup_seconds}, {"A sweeps", sm.a_sweeps_seconds}, {"B sweeps", sm.b_sweeps_seconds}};
   c.total = best.stats.total_seconds();
   c.quality = measure_quality(best.mesh, scene, samples);
+  c.mesh = std::move(best.mesh);
   const int sweeps = best.params.steps_a + best.params.steps_b + best.params.steps_free;
   c.field_samples = best.stats.field_blocks * 512;
   for (const StageTime& s : c.stages) {
@@ -132,6 +165,9 @@ void print_table(const Scene& scene, const Params& p, const std::vector<Column>&
   row("min angle [deg]", [](const Column& c) { return fmt::format("{:.2f}", c.quality.min_angle_degrees); });
   row("angles < 10 deg [%]", [](const Column& c) { return fmt::format("{:.2f}", 100 * c.quality.share_angles_below_10); });
   row("particles outside", [](const Column& c) { return fmt::format("{}/{}", c.quality.outside, c.quality.sampled); });
+  row("distance to full / d", [](const Column& c) {
+    return c.distance_to_full < 0 ? std::string("-") : fmt::format("{:.4f}", c.distance_to_full);
+  });
   if (scene.has_flat_top)
     row("top flatness RMS/d", [](const Column& c) {
       return c.quality.flatness_rms_over_d < 0 ? std::string("-") : fmt::format("{:.4f}", c.quality.flatness_rms_over_d);
@@ -150,6 +186,7 @@ int main(int argc, char** argv) {
   int repeat = 1, filter_passes = 4;
   std::string write_particles;
   bool json = false;
+  double decimate = 0;
   app.add_option("--scene", scene_name, "synthetic scene: block | sphere | splash");
   app.add_option("--count", count, "particles of the synthetic scene");
   app.add_option("--file", file, "a particle file instead of a synthetic scene (spacing estimated)");
@@ -159,6 +196,9 @@ int main(int argc, char** argv) {
   app.add_flag("!--no-warmup", warmup, "time the first run of each tool too (by default one untimed run of each comes first)");
   app.add_option("--samples", samples, "particles tested for being outside each mesh");
   app.add_flag("--json", json, "print JSON instead of the table");
+  app.add_option("--decimate", decimate,
+                 "also meniscus with --decimate E, its largest distance to the full mesh measured both ways")
+      ->check(CLI::Range(0.0, 1.0));
   app.add_option("--write-particles", write_particles,
                  "write the scene's particles (.ply point cloud) and exit: the same data for `meniscus surface`, "
                  "perf or callgrind");
@@ -208,6 +248,12 @@ int main(int argc, char** argv) {
     if (warmup) (void)run_openvdb(scene.particles.positions, vdb);
     cols.push_back(run_vdb("vdb", scene, vdb, repeat, samples));
     cols.push_back(run_vdb(fmt::format("vdb-filter{}", filter_passes), scene, vdb_filtered, repeat, samples));
+    if (decimate > 0) {
+      Params lean = base;
+      lean.decimate = decimate;
+      cols.push_back(run_meniscus(fmt::format("meniscus-dec{:g}", decimate), scene, lean, repeat, samples));
+      cols.back().distance_to_full = distance_between(cols.back().mesh, cols[1].mesh, 200000) / p.spacing;
+    }
 
     const double vdb_plain = cols[2].total, vdb_filt = cols[3].total;
     const double ratio_nosmooth = cols[0].total / vdb_plain, ratio_full = cols[1].total / vdb_filt;
@@ -249,6 +295,7 @@ int main(int argc, char** argv) {
                         {"particles_outside", q.outside},
                         {"particles_sampled", q.sampled},
                         {"flatness_rms_over_d", q.flatness_rms_over_d}};
+        if (c.distance_to_full >= 0) k["distance_to_full_over_d"] = c.distance_to_full;
         j["runs"][c.name] = k;
       }
       j["ratios"] = {{"nosmooth_over_vdb", ratio_nosmooth},

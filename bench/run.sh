@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # meniscus bench — builds build/bench and runs meniscus_bench_compare on the synthetic scenes
 # (100k, 300k; --large adds 1M and 3M) and the bundled real frames, printing the tables.
-# Usage: bench/run.sh [--large | --counts N1,N2,...] [--no-files] [--json] [--micro] [--repeat N]
+# Usage: bench/run.sh [--large | --counts N1,N2,...] [--no-files] [--json] [--micro] [--repeat N] [--decimate E]
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="$root/build/bench"
@@ -17,6 +17,7 @@ while [[ $# -gt 0 ]]; do
     --json) extra+=(--json) ;;
     --micro) micro=1 ;;
     --repeat) extra+=(--repeat "$2"); shift ;;
+    --decimate) extra+=(--decimate "$2"); shift ;;
     *) echo "unknown option $1" >&2; exit 2 ;;
   esac
   shift

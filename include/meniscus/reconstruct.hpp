@@ -100,7 +100,8 @@ Params resolve_params(const ParticleSet& particles, const Params& params);
 /// smoothing_rings() rings (one an A sweep, two a B sweep: 46 for the default schedule), each
 /// ring at most one triangle edge further (0.61 d for the tiles, 0.87 d for cubes); each of
 /// those vertices on the particles its field samples and its constraint projections read, and on
-/// nothing else (no colouring, no order, no sum over the frame). With the defaults 33.2 d.
+/// nothing else (no colouring, no order, no sum over the frame). With the defaults 33.2 d; with
+/// decimate, 4·√3·8 d = 55.4 d more (the simplification's patches, post/decimate.hpp).
 /// Frame-wide estimates (spacing, rest density, reference speed) must be given, as a sequence
 /// does after its first frame (resolve_frame_estimates).
 double local_reach(const Params& p);

@@ -161,7 +161,8 @@ void post_process(const StagePlan& plan, const ParticleSet& particles, Result& r
           spelled_setting("clip_box", fmt::format("{:g}", fmt::join(b, ","))), lo.x, lo.y, lo.z, hi.x, hi.y, hi.z));
   }
   if (plan.decimate_bound > 0) {
-    const DecimateOutcome d = timer.run("decimate", [&] { return decimate(mesh, plan.decimate_bound); });
+    const DecimateOutcome d =
+        timer.run("decimate", [&] { return decimate(mesh, plan.decimate_bound, plan.decimate_cell); });
     stats.decimated_triangles = d.triangles_before - d.triangles_after;
     stats.decimate_error = d.max_error;
     stats.decimate_rounds = d.rounds;

@@ -18,6 +18,7 @@
 #include "meniscus/resources.hpp"
 #include "pipeline/internal.hpp"
 #include "pipeline/stage_plan.hpp"
+#include "post/decimate.hpp"
 #include "smooth/schedule.hpp"
 
 namespace meniscus {
@@ -275,7 +276,9 @@ double local_reach(const Params& p) {
   if (p.velocity_weighted) projection = std::max(projection, p.transfer_radius);
   projection += kDrift * d;
   const int rings = smoothing_rings(smooth_schedule(p)) + (p.erode > 0 ? 1 : 0);
-  return rings * edge + std::max(field, projection);
+  // The simplification reads the finished mesh around a triangle (post/decimate.hpp).
+  const double simplified = p.decimate > 0 ? decimate_reach(kDecimateCell * d) : 0;
+  return rings * edge + std::max(field, projection) + simplified;
 }
 
 Params resolve_frame_estimates(const ParticleSet& particles, const Params& params) {

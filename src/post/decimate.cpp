@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <queue>
+#include <span>
 #include <vector>
 
 #include "common/for_each.hpp"
@@ -29,8 +30,7 @@ constexpr float kFacingCos = 0.5f;           // cos 60°: a new triangle against
 /// the bundled frames at 0.02 d: up to 1.7 times the points' share; at 0.6 one frame went 1 % past
 /// the bound).
 constexpr double kMargin = 0.55;
-constexpr double kPatchTriangles = 20000;
-constexpr int kPasses = 3, kRounds = 3;
+constexpr int kRounds = 3;
 
 /// Garland & Heckbert's quadric: the sum of squared distances to planes, v^T A v with v = (x, y, z, 1).
 struct Quadric {
@@ -59,12 +59,18 @@ struct Quadric {
 struct Shared {
   const std::vector<Vec3f>& x;
   std::vector<Quadric> quadric;
-  std::vector<Vec3f> points;           ///< the input's vertices, then its triangles' centroids
+  std::vector<Vec3f> points;           ///< the input's triangles' centroids, then its edges' midpoints
   std::vector<uint32_t> next;          ///< the next point of the same triangle
   std::vector<uint8_t> locked;         ///< on a border or a non-manifold edge of the input
   std::vector<uint8_t> floor_valence;  ///< the least valence a vertex may fall to
   std::vector<Vec3f> normal;           ///< the input's vertex normals (unit, area-weighted)
+  /// Vertices none of whose collapses passed since their triangles last changed: tried again only
+  /// once they change (a later round after a flip, a later pass at a seam).
+  std::vector<uint8_t> settled;
   float reach2 = 0;                    ///< (kMargin · bound)²
+
+  /// Point p: the input's vertex p, or points[p - vertices].
+  Vec3f point(uint32_t p) const { return p < x.size() ? x[p] : points[p - x.size()]; }
 };
 
 /// The cosine of a triangle's smallest angle (its largest cosine); 1 for a degenerate one.
@@ -83,6 +89,38 @@ struct Owned {
   std::vector<uint32_t> head;
 };
 
+/// Each local vertex's triangles in fixed slots. A vertex with more triangles in the patch than
+/// slots is never interior (valence is capped at 9, the input's at 10), and only interior
+/// vertices' triangles change, so the slots never overflow where they are read.
+class Fans {
+ public:
+  static constexpr uint32_t kSlots = 16;
+  void reset(std::size_t n) {
+    slots_.assign(n * kSlots, 0);
+    count_.assign(n, 0);
+  }
+  void push(uint32_t v, uint32_t t) {
+    if (count_[v] < kSlots) slots_[std::size_t(v) * kSlots + count_[v]] = t;
+    ++count_[v];
+  }
+  std::size_t size(uint32_t v) const { return count_[v]; }
+  bool overflows(uint32_t v) const { return count_[v] > kSlots; }
+  std::span<const uint32_t> operator[](uint32_t v) const {
+    return {slots_.data() + std::size_t(v) * kSlots, std::min(count_[v], kSlots)};
+  }
+  void erase(uint32_t v, uint32_t t) {
+    uint32_t* const f = slots_.data() + std::size_t(v) * kSlots;
+    uint32_t* const end = f + count_[v];
+    uint32_t* const at = std::find(f, end, t);
+    std::copy(at + 1, end, at);
+    --count_[v];
+  }
+  void clear(uint32_t v) { count_[v] = 0; }
+
+ private:
+  std::vector<uint32_t> slots_, count_;
+};
+
 class PatchSimplifier {
  public:
   PatchSimplifier(Shared& s, std::vector<uint32_t> global, Owned triangles, const std::vector<uint32_t>& incident)
@@ -92,13 +130,14 @@ class PatchSimplifier {
         head_(std::move(triangles.head)),
         alive_(tris_.size(), 1) {
     const std::size_t n = global_.size();
-    fan_.resize(n);
+    fan_.reset(n);
     for (uint32_t t = 0; t < tris_.size(); ++t)
-      for (uint32_t v : tris_[t]) fan_[v].push_back(t);
+      for (uint32_t v : tris_[t]) fan_.push(v, t);
     interior_.resize(n);
     stamp_.assign(n, 0);
     for (uint32_t v = 0; v < n; ++v)
-      interior_[v] = !s_.locked[global_[v]] && fan_[v].size() == incident[global_[v]] && single_fan(v);
+      interior_[v] =
+          !s_.locked[global_[v]] && !fan_.overflows(v) && fan_.size(v) == incident[global_[v]] && single_fan(v);
   }
 
   std::size_t collapses = 0, flips = 0;
@@ -133,7 +172,7 @@ class PatchSimplifier {
 
   /// The corners after v in each of its triangles form one cycle (a closed disk around v).
   bool single_fan(uint32_t v) const {
-    const std::vector<uint32_t>& f = fan_[v];
+    const std::span<const uint32_t> f = fan_[v];
     if (f.size() < 3) return false;
     const auto after = [&](uint32_t t) {
       const Triangle& c = tris_[t];
@@ -153,17 +192,23 @@ class PatchSimplifier {
     }
   }
 
+  /// The corner after v in triangle t.
+  uint32_t after(uint32_t v, uint32_t t) const {
+    const Triangle& c = tris_[t];
+    return c[0] == v ? c[1] : (c[1] == v ? c[2] : c[0]);
+  }
+
+  /// The neighbours of an interior vertex (a closed disk: each is the corner after it in exactly
+  /// one of its triangles).
   void ring(uint32_t v, std::vector<uint32_t>& out) const {
     out.clear();
-    for (uint32_t t : fan_[v])
-      for (uint32_t c : tris_[t])
-        if (c != v && std::find(out.begin(), out.end(), c) == out.end()) out.push_back(c);
+    for (uint32_t t : fan_[v]) out.push_back(after(v, t));
   }
 
   /// Whether every point of the triangles `from` lies within reach of one of `to` (id and
   /// corners): the triangle that held it where it is still there, else the first within reach; its
   /// index in `to` goes to assign_.
-  bool rehome(const std::vector<uint32_t>& from, const std::vector<std::pair<uint32_t, Triangle>>& to) {
+  bool rehome(std::span<const uint32_t> from, const std::vector<std::pair<uint32_t, Triangle>>& to) {
     moving_.clear();
     assign_.clear();
     for (uint32_t t : from) {
@@ -171,7 +216,7 @@ class PatchSimplifier {
       for (uint32_t k = 0; k < to.size(); ++k)
         if (to[k].first == t) same = k;
       for (uint32_t p = head_[t]; p != kNone; p = s_.next[p]) {
-        const Vec3f q = s_.points[p];
+        const Vec3f q = s_.point(p);
         const auto near = [&](uint32_t k) {
           const Triangle& c = to[k].second;
           return length2(closest_point_on_triangle(q, at(c[0]), at(c[1]), at(c[2])) - q) <= s_.reach2;
@@ -188,7 +233,7 @@ class PatchSimplifier {
   }
 
   /// Moves the points rehome() placed, after the triangles of `from` gave them up.
-  void commit_rehome(const std::vector<uint32_t>& from, const std::vector<std::pair<uint32_t, Triangle>>& to) {
+  void commit_rehome(std::span<const uint32_t> from, const std::vector<std::pair<uint32_t, Triangle>>& to) {
     for (uint32_t t : from) head_[t] = kNone;
     for (std::size_t i = 0; i < moving_.size(); ++i) {
       const uint32_t t = to[assign_[i]].first;
@@ -212,7 +257,7 @@ class PatchSimplifier {
     return cos_new <= kMinAngleCos || cos_new <= smallest_angle_cos(at(old[0]), at(old[1]), at(old[2]));
   }
 
-  std::size_t valence(uint32_t v) const { return fan_[v].size(); }
+  std::size_t valence(uint32_t v) const { return fan_.size(v); }
   std::size_t floor_of(uint32_t v) const { return s_.floor_valence[global_[v]]; }
 
   bool can_collapse(uint32_t u, uint32_t v) {
@@ -245,6 +290,13 @@ class PatchSimplifier {
       if (!good(c, tris_[t])) return false;
       to_.push_back({t, c});
     }
+    // u itself first: the point most likely to be too far, checked before all the others.
+    const Vec3f xu = at(u);
+    if (std::none_of(to_.begin(), to_.end(), [&](const auto& m) {
+          const Triangle& c = m.second;
+          return length2(closest_point_on_triangle(xu, at(c[0]), at(c[1]), at(c[2])) - xu) <= s_.reach2;
+        }))
+      return false;
     for (uint32_t t : fan_[v])
       if (t != shared[0] && t != shared[1]) to_.push_back({t, tris_[t]});
     if (!rehome(fan_[u], to_)) return false;
@@ -252,10 +304,7 @@ class PatchSimplifier {
     return true;
   }
 
-  void erase_from_fan(uint32_t v, uint32_t t) {
-    std::vector<uint32_t>& f = fan_[v];
-    f.erase(std::find(f.begin(), f.end(), t));
-  }
+  void erase_from_fan(uint32_t v, uint32_t t) { fan_.erase(v, t); }
 
   void collapse(uint32_t u, uint32_t v) {
     commit_rehome(fan_[u], to_);
@@ -266,9 +315,9 @@ class PatchSimplifier {
     for (uint32_t t : fan_[u]) {
       for (uint32_t& k : tris_[t])
         if (k == u) k = v;
-      fan_[v].push_back(t);
+      fan_.push(v, t);
     }
-    fan_[u].clear();
+    fan_.clear(u);
     interior_[u] = 0;
     s_.quadric[global_[v]] += s_.quadric[global_[u]];
     ++collapses;
@@ -282,24 +331,21 @@ class PatchSimplifier {
 
   /// The cost of collapsing u into v: their quadrics at v.
   double cost(uint32_t u, uint32_t v) const {
-    Quadric q = s_.quadric[global_[u]];
-    q += s_.quadric[global_[v]];
-    return q.at(at(v));
+    const Vec3f x = at(v);
+    return s_.quadric[global_[u]].at(x) + s_.quadric[global_[v]].at(x);
   }
 
   /// u's cheapest collapse's cost.
   double cost(uint32_t u) const {
     double best = INFINITY;
-    for (uint32_t t : fan_[u])
-      for (uint32_t v : tris_[t])
-        if (v != u) best = std::min(best, cost(u, v));
+    for (uint32_t t : fan_[u]) best = std::min(best, cost(u, after(u, t)));
     return best;
   }
 
   void collapse_all() {
     std::priority_queue<Candidate> heap;
     for (uint32_t u = 0; u < global_.size(); ++u)
-      if (interior_[u]) heap.push({cost(u), u, stamp_[u]});
+      if (interior_[u] && !s_.settled[global_[u]]) heap.push({cost(u), u, stamp_[u]});
     std::vector<std::pair<double, uint32_t>> targets;
     std::vector<uint32_t> touched;
     while (!heap.empty()) {
@@ -311,12 +357,16 @@ class PatchSimplifier {
       targets.clear();
       for (uint32_t v : scratch_) targets.push_back({cost(u, v), v});
       std::sort(targets.begin(), targets.end());
+      // Settled only where the patch's seam did not stop it: a later pass tries the others again.
+      s_.settled[global_[u]] = std::all_of(scratch_.begin(), scratch_.end(), [&](uint32_t w) { return interior_[w]; });
       for (const auto& [ignored, v] : targets) {
         if (!can_collapse(u, v)) continue;
         touched = ring_u_;
         collapse(u, v);
-        for (uint32_t w : touched)
+        for (uint32_t w : touched) {
+          s_.settled[global_[w]] = 0;
           if (interior_[w]) heap.push({cost(w), w, ++stamp_[w]});
+        }
         break;
       }
     }
@@ -353,8 +403,9 @@ class PatchSimplifier {
     tris_[o] = made_o;
     erase_from_fan(a, o);
     erase_from_fan(b, t);
-    fan_[c].push_back(o);
-    fan_[d].push_back(t);
+    fan_.push(c, o);
+    fan_.push(d, t);
+    for (uint32_t w : {a, b, c, d}) s_.settled[global_[w]] = 0;
     ++flips;
     return true;
   }
@@ -382,7 +433,7 @@ class PatchSimplifier {
   std::vector<Triangle> tris_;
   std::vector<uint32_t> head_;  ///< per triangle, its first point
   std::vector<uint8_t> alive_, interior_;
-  std::vector<std::vector<uint32_t>> fan_;
+  Fans fan_;
   std::vector<uint32_t> stamp_;
   std::vector<uint32_t> ring_u_, ring_v_, scratch_, moving_, assign_, pair_;
   std::vector<std::pair<uint32_t, Triangle>> to_;
@@ -397,11 +448,35 @@ Owned simplify_pass(Shared& s, const Owned& current, double side, double offset,
   std::vector<uint32_t> incident(x.size(), 0);
   for (const Triangle& t : tris)
     for (uint32_t v : t) ++incident[v];
-  std::vector<std::pair<std::array<int64_t, 3>, uint32_t>> cells(tris.size());
-  for_each_index(tris.size(), 4096, [&](std::size_t t) {
+  // Each triangle's cell, packed 21 bits an axis from the lowest (an axis spanning more cells, a
+  // stray particle 16 million spacings away, has its cells merged in runs: larger patches there).
+  const auto cell_of = [&](std::size_t t) {
     const Vec3f c = (x[tris[t][0]] + x[tris[t][1]] + x[tris[t][2]]) * (1.0f / 3);
-    for (int a = 0; a < 3; ++a) cells[t].first[std::size_t(a)] = int64_t(std::floor((double(c[a]) + offset) / side));
-    cells[t].second = uint32_t(t);
+    std::array<int64_t, 3> i;
+    for (int a = 0; a < 3; ++a) i[std::size_t(a)] = int64_t(std::floor((double(c[a]) + offset) / side));
+    return i;
+  };
+  constexpr std::size_t kChunk = 1 << 14;
+  std::vector<std::array<int64_t, 6>> bounds((tris.size() + kChunk - 1) / kChunk);  // per chunk: lowest, highest
+  for_each_index(bounds.size(), [&](std::size_t k) {
+    std::array<int64_t, 6> b{INT64_MAX, INT64_MAX, INT64_MAX, INT64_MIN, INT64_MIN, INT64_MIN};
+    for (std::size_t t = k * kChunk, end = std::min(tris.size(), t + kChunk); t != end; ++t) {
+      const std::array<int64_t, 3> i = cell_of(t);
+      for (std::size_t a = 0; a < 3; ++a) b[a] = std::min(b[a], i[a]), b[a + 3] = std::max(b[a + 3], i[a]);
+    }
+    bounds[k] = b;
+  });
+  std::array<int64_t, 3> lo{INT64_MAX, INT64_MAX, INT64_MAX}, hi{INT64_MIN, INT64_MIN, INT64_MIN}, run{1, 1, 1};
+  for (const auto& b : bounds)
+    for (std::size_t a = 0; a < 3; ++a) lo[a] = std::min(lo[a], b[a]), hi[a] = std::max(hi[a], b[a + 3]);
+  constexpr int64_t kAxis = int64_t(1) << 21;
+  for (std::size_t a = 0; a < 3 && !tris.empty(); ++a) run[a] = (hi[a] - lo[a]) / kAxis + 1;
+  std::vector<std::pair<uint64_t, uint32_t>> cells(tris.size());
+  for_each_index(tris.size(), 4096, [&](std::size_t t) {
+    const std::array<int64_t, 3> i = cell_of(t);
+    uint64_t key = 0;
+    for (std::size_t a = 0; a < 3; ++a) key = key << 21 | uint64_t((i[a] - lo[a]) / run[a]);
+    cells[t] = {key, uint32_t(t)};
   });
   tbb::parallel_sort(cells.begin(), cells.end());
   std::vector<std::size_t> starts;
@@ -441,61 +516,90 @@ Owned simplify_pass(Shared& s, const Owned& current, double side, double offset,
 
 }  // namespace
 
-DecimateOutcome decimate(TriangleMesh& mesh, double bound) {
+DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell) {
   DecimateOutcome outcome;
   outcome.triangles_before = outcome.triangles_after = mesh.triangles.size();
-  if (!(bound > 0) || mesh.triangles.empty()) return outcome;
+  if (!(bound > 0) || !(cell > 0) || mesh.triangles.empty()) return outcome;
   const std::vector<Vec3f>& x = mesh.vertices;
   const std::size_t nv = x.size(), nt = mesh.triangles.size();
   Shared s{x,
            std::vector<Quadric>(nv),
            {},
-           std::vector<uint32_t>(nv + nt, kNone),
+           {},
            std::vector<uint8_t>(nv, 0),
            std::vector<uint8_t>(nv, 0),
            std::vector<Vec3f>(nv, Vec3f{0, 0, 0}),
+           std::vector<uint8_t>(nv, 0),
            float(kMargin * kMargin * bound * bound)};
   // Borders and edges used more than once in a direction: their vertices stay.
-  const std::vector<EdgeKey> edges = sorted_directed_edges(mesh.triangles);
-  for (std::size_t i = 0; i < edges.size(); ++i)
-    if ((i + 1 < edges.size() && edges[i + 1] == edges[i]) || !contains(edges, reversed(edges[i])))
-      s.locked[edge_from(edges[i])] = s.locked[edge_to(edges[i])] = 1;
-  // The points: each vertex owned by its first triangle, each centroid by its triangle.
-  Owned current{mesh.triangles, std::vector<uint32_t>(nt, kNone)};
-  s.points = x;
-  s.points.resize(nv + nt);
-  std::vector<uint8_t> placed(nv, 0);
-  double area = 0;
-  std::vector<uint32_t> count(nv, 0);
-  for (uint32_t t = 0; t < nt; ++t) {
-    const Triangle& c = mesh.triangles[t];
-    const Vec3f n = cross(x[c[1]] - x[c[0]], x[c[2]] - x[c[0]]);
-    const double a = double(length(n)) / 2;
-    area += a;
-    if (a > 0)
-      for (uint32_t v : c) s.quadric[v].add_plane(normalized(n), a, x[c[0]]), s.normal[v] += n;
-    s.points[nv + t] = (x[c[0]] + x[c[1]] + x[c[2]]) * (1.0f / 3);
-    s.next[nv + t] = current.head[t];
-    current.head[t] = uint32_t(nv + t);
-    for (int k = 0; k < 3; ++k) {
-      const uint32_t from = c[std::size_t(k)], to = c[std::size_t((k + 1) % 3)];
-      if (from > to) continue;
-      s.points.push_back((x[from] + x[to]) * 0.5f);
-      s.next.push_back(current.head[t]);
-      current.head[t] = uint32_t(s.points.size() - 1);
-    }
-    for (uint32_t v : c) {
-      ++count[v];
-      if (!placed[v]) placed[v] = 1, s.next[v] = current.head[t], current.head[t] = v;
-    }
+  {
+    const std::vector<EdgeKey> edges = sorted_directed_edges(mesh.triangles);
+    std::vector<uint8_t> odd(edges.size(), 0);
+    for_each_index(edges.size(), 4096, [&](std::size_t i) {
+      odd[i] = (i + 1 < edges.size() && edges[i + 1] == edges[i]) || !contains(edges, reversed(edges[i]));
+    });
+    for (std::size_t i = 0; i < edges.size(); ++i)
+      if (odd[i]) s.locked[edge_from(edges[i])] = s.locked[edge_to(edges[i])] = 1;
   }
-  for (Vec3f& n : s.normal) n = normalized(n);
-  for (std::size_t v = 0; v < nv; ++v) s.floor_valence[v] = uint8_t(std::min<uint32_t>(kMinValence, count[v]));
-  const double side = std::max(std::sqrt(kPatchTriangles * area / double(nt)), 1e-30);
-  for (int pass = 0; pass < kPasses; ++pass) {
+  Owned current{{}, std::vector<uint32_t>(nt, kNone)};
+  {
+    // Each vertex's triangles (compressed rows, in triangle order), each triangle's plane.
+    const std::vector<Triangle>& tris = mesh.triangles;
+    std::vector<uint32_t> first(nv + 1, 0), incident(3 * nt);
+    for (const Triangle& c : tris)
+      for (uint32_t v : c) ++first[v + 1];
+    for (std::size_t v = 0; v < nv; ++v) first[v + 1] += first[v];
+    {
+      std::vector<uint32_t> at(first.begin(), first.end() - 1);
+      for (uint32_t t = 0; t < nt; ++t)
+        for (uint32_t v : tris[t]) incident[at[v]++] = t;
+    }
+    std::vector<Vec3f> plane(nt);  // the normal, as long as twice the area
+    std::vector<uint32_t> mids(nt + 1, 0);
+    for_each_index(nt, 4096, [&](std::size_t t) {
+      const Triangle& c = tris[t];
+      plane[t] = cross(x[c[1]] - x[c[0]], x[c[2]] - x[c[0]]);
+      mids[t + 1] = uint32_t(c[0] < c[1]) + uint32_t(c[1] < c[2]) + uint32_t(c[2] < c[0]);
+    });
+    for (std::size_t t = 0; t < nt; ++t) mids[t + 1] += mids[t];
+    for_each_index(nv, 1024, [&](std::size_t v) {
+      Vec3f normal{0, 0, 0};
+      for (uint32_t k = first[v]; k < first[v + 1]; ++k) {
+        const uint32_t t = incident[k];
+        const double a = double(length(plane[t])) / 2;
+        if (a > 0) s.quadric[v].add_plane(normalized(plane[t]), a, x[tris[t][0]]);
+        normal += plane[t];
+      }
+      s.normal[v] = normalized(normal);
+      s.floor_valence[v] = uint8_t(std::min<uint32_t>(kMinValence, first[v + 1] - first[v]));
+    });
+    // The points: the vertices (each held by its first triangle), the triangles' centroids and
+    // the edges' midpoints (each held by the triangle where the edge runs from the lower index).
+    s.points.resize(nt + mids[nt]);
+    s.next.assign(nv + s.points.size(), kNone);
+    for_each_index(nt, 4096, [&](std::size_t t) {
+      const Triangle& c = tris[t];
+      uint32_t& head = current.head[t];
+      const auto hold = [&](std::size_t p) {
+        s.next[p] = head;
+        head = uint32_t(p);
+      };
+      s.points[t] = (x[c[0]] + x[c[1]] + x[c[2]]) * (1.0f / 3);
+      hold(nv + t);
+      std::size_t mid = nt + mids[t];
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t from = c[std::size_t(k)], to = c[std::size_t((k + 1) % 3)];
+        if (from < to) s.points[mid] = (x[from] + x[to]) * 0.5f, hold(nv + mid++);
+      }
+      for (uint32_t v : c)
+        if (incident[first[v]] == t) hold(v);
+    });
+  }
+  current.triangles = std::move(mesh.triangles);  // the simplification's input from here on
+  for (int pass = 0; pass < kDecimatePasses; ++pass) {
     const std::size_t before = current.triangles.size();
-    const double offset = std::fmod(pass * 0.6180339887498949, 1.0) * side;
-    current = simplify_pass(s, current, side, offset, outcome);
+    const double offset = std::fmod(pass * 0.6180339887498949, 1.0) * cell;
+    current = simplify_pass(s, current, cell, offset, outcome);
     ++outcome.rounds;
     if (double(current.triangles.size()) > 0.98 * double(before)) break;
   }
@@ -503,7 +607,7 @@ DecimateOutcome decimate(TriangleMesh& mesh, double bound) {
   for (std::size_t t = 0; t < current.triangles.size(); ++t) {
     const Triangle& c = current.triangles[t];
     for (uint32_t p = current.head[t]; p != kNone; p = s.next[p]) {
-      const Vec3f q = s.points[p];
+      const Vec3f q = s.point(p);
       outcome.max_error =
           std::max(outcome.max_error, double(length(closest_point_on_triangle(q, x[c[0]], x[c[1]], x[c[2]]) - q)));
     }

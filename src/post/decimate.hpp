@@ -15,10 +15,12 @@
 //     none turns more than 45° from the triangle it replaces or 60° from the input's normals at
 //     its corners (so no fold).
 // meshoptimizer (Debian's 0.18) was the engine before: it has no control of valence or angles, and
-// its collapses had to be checked by sampling, 3-8 times slower than this on the bundled frames.
-// The mesh is cut into patches of about 20,000 triangles, simplified in parallel with their seams
-// kept (a vertex changes only where all its triangles are in the patch); up to 3 passes over
-// grids shifted by the golden ratio's fraction of a cell let the seams go too. The result does not depend on the number
+// its collapses had to be checked by sampling, 8-13 times slower than this on the bundled frames.
+// The mesh is cut into patches, the cells of a grid anchored at the origin (8 d wide in the
+// pipeline: about 2,000 triangles of flat water), simplified in parallel with their seams kept (a
+// vertex changes only where all its triangles are in the patch); up to 3 passes over grids
+// shifted by the golden ratio's fraction of a cell let the seams go too. A vertex none of whose
+// collapses passes is tried again only once its triangles change. The result does not depend on the number
 // of threads.
 #pragma once
 
@@ -39,8 +41,19 @@ struct DecimateOutcome {
 };
 
 /// Simplifies `mesh` in place within `bound` (a world distance; ≤ 0 leaves it as it is) as the
-/// file's comment says, then drops the vertices no triangle uses. Borders (a clip's cut) and
-/// vertices where the input is not manifold stay as they are.
-DecimateOutcome decimate(TriangleMesh& mesh, double bound);
+/// file's comment says, in patches that are the cells of side `cell` (a world distance) of a grid
+/// anchored at the origin, then drops the vertices no triangle uses. Borders (a clip's cut) and
+/// vertices where the input is not manifold stay as they are. A triangle of the result depends
+/// only on the input within decimate_reach(cell) of it.
+DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell);
+
+/// The passes over shifted grids.
+inline constexpr int kDecimatePasses = 3;
+
+/// How far a change of the input reaches in the result of decimate(…, cell): each pass reads the
+/// patch around a triangle (a cell's diagonal), one more diagonal for the triangles that straddle
+/// the cells. Every triangle whose corners all lie farther than this from every vertex that
+/// changed comes out the same, bit for bit (tests/e2e/test_decimate.cpp).
+inline double decimate_reach(double cell) { return (kDecimatePasses + 1) * 1.7320508075688772 * cell; }
 
 }  // namespace meniscus

@@ -27,7 +27,7 @@ constexpr float kTurnCos = 0.70710678f;      // cos 45°
 constexpr float kFacingCos = 0.5f;           // cos 60°: a new triangle against its corners' input normals
 /// The share of the bound the input's points may lie from the simplified surface: the bound holds
 /// between the surfaces, and they can part farther between the points (measured independently on
-/// the bundled frames at 0.02 d: up to 1.7 times the points' share; at 0.6 one frame went 1 % past
+/// the bundled frames at 0.02 d: up to 1.6 times the points' share; at 0.6 one frame went 1 % past
 /// the bound).
 constexpr double kMargin = 0.55;
 constexpr int kRounds = 3;
@@ -51,10 +51,11 @@ struct Quadric {
   }
 };
 
-/// What the patches share. The bound is kept by points of the input surface (its vertices and the
-/// centroids of its triangles): each is owned by one triangle and lies within reach of it; an
-/// operation hands the points of the triangles it changes to the nearest of the triangles it
-/// leaves, or is refused. Each entry is written only by the patch that holds the triangle or the
+/// What the patches share. The bound is kept by points of the input surface (its vertices, its
+/// edges' midpoints and its triangles' centroids): each is owned by one triangle and lies within
+/// reach of it; an operation hands the points of the triangles it changes to the triangles it
+/// leaves (the one that held a point, where it is still there, else the first within reach), or is
+/// refused. Each entry is written only by the patch that holds the triangle or the
 /// vertex (one patch each), so the patches run in parallel without locks.
 struct Shared {
   const std::vector<Vec3f>& x;
@@ -90,8 +91,8 @@ struct Owned {
 };
 
 /// Each local vertex's triangles in fixed slots. A vertex with more triangles in the patch than
-/// slots is never interior (valence is capped at 9, the input's at 10), and only interior
-/// vertices' triangles change, so the slots never overflow where they are read.
+/// slots is never interior, and only interior vertices' triangles change (their valence capped at
+/// 9, or at the input's), so the slots never overflow where they are read.
 class Fans {
  public:
   static constexpr uint32_t kSlots = 16;

@@ -29,6 +29,10 @@ double resident_bytes() {
 /// (peak RSS over the baseline / field blocks, default field): 16-27 KB; 24 KB is the estimate,
 /// the 90 % default share of the grant the margin.
 constexpr double kRunBytesPerBandBlock = 24e3;
+/// What the simplification adds a block where it runs (--decimate): the points, quadrics and
+/// patches it keeps over the finished mesh. Measured 26-27 KB a block (the dam break 23, the 300k
+/// splash at E = 0.02).
+constexpr double kDecimateBytesPerBandBlock = 28e3;
 
 }  // namespace
 
@@ -51,13 +55,15 @@ std::vector<uint64_t> checked_band_blocks(const HashGrid& grid, const SampleLatt
   if (bound * 8.0 > max_bytes) refuse(bound);
   std::vector<uint64_t> keys = band_blocks(grid, lattice, band);
   if (double(keys.size()) * (kBlockSamples * 4 + 20) > max_bytes) refuse(double(keys.size()));
-  const double resident = resident_bytes(), need = resident + double(keys.size()) * kRunBytesPerBandBlock;
+  const double per_block = kRunBytesPerBandBlock + (p.decimate > 0 ? kDecimateBytesPerBandBlock : 0);
+  const double resident = resident_bytes(), need = resident + double(keys.size()) * per_block;
   if (need > max_bytes)
     throw ResourceError(fmt::format(
         "this frame would need about {} ({} in use, {} field blocks at voxel size {:g} for the field, the mesh and its "
-        "smoothing), more than the {} allowed ({}); use a larger {}, or give the job more memory ({}, Slurm's --mem)",
-        human_bytes(need), human_bytes(resident), keys.size(), p.voxel_size, human_bytes(max_bytes), limit_from,
-        spelled("voxel_size"), spelled("max_memory_gb")));
+        "smoothing{}), more than the {} allowed ({}); use a larger {}, or give the job more memory ({}, Slurm's --mem)",
+        human_bytes(need), human_bytes(resident), keys.size(), p.voxel_size,
+        p.decimate > 0 ? fmt::format(" and {}", spelled("decimate")) : std::string(), human_bytes(max_bytes),
+        limit_from, spelled("voxel_size"), spelled("max_memory_gb")));
   return keys;
 }
 

@@ -74,6 +74,20 @@ struct Shared {
   Vec3f point(uint32_t p) const { return p < x.size() ? x[p] : points[p - x.size()]; }
 };
 
+/// The squared distance from q to triangle abc. Ericson's closest point answers a corner for a
+/// triangle of no area (a clip's cap can hold such slivers along the box's edges): there the
+/// nearest of the three edges answers instead, wherever the first answer is beyond `reach2`.
+float distance2(Vec3f q, Vec3f a, Vec3f b, Vec3f c, float reach2) {
+  const float d2 = length2(closest_point_on_triangle(q, a, b, c) - q);
+  if (d2 <= reach2) return d2;
+  const auto segment = [&](Vec3f p, Vec3f e) {
+    const float l2 = length2(e - p);
+    const float s = l2 > 0 ? std::clamp(dot(q - p, e - p) / l2, 0.0f, 1.0f) : 0.0f;
+    return length2(p + (e - p) * s - q);
+  };
+  return std::min({d2, segment(a, b), segment(b, c), segment(c, a)});
+}
+
 /// The cosine of a triangle's smallest angle (its largest cosine); 1 for a degenerate one.
 float smallest_angle_cos(Vec3f a, Vec3f b, Vec3f c) {
   const auto corner = [](Vec3f p, Vec3f q, Vec3f r) {
@@ -220,7 +234,7 @@ class PatchSimplifier {
         const Vec3f q = s_.point(p);
         const auto near = [&](uint32_t k) {
           const Triangle& c = to[k].second;
-          return length2(closest_point_on_triangle(q, at(c[0]), at(c[1]), at(c[2])) - q) <= s_.reach2;
+          return distance2(q, at(c[0]), at(c[1]), at(c[2]), s_.reach2) <= s_.reach2;
         };
         uint32_t where = same != kNone && near(same) ? same : kNone;
         for (uint32_t k = 0; where == kNone && k < to.size(); ++k)
@@ -295,7 +309,7 @@ class PatchSimplifier {
     const Vec3f xu = at(u);
     if (std::none_of(to_.begin(), to_.end(), [&](const auto& m) {
           const Triangle& c = m.second;
-          return length2(closest_point_on_triangle(xu, at(c[0]), at(c[1]), at(c[2])) - xu) <= s_.reach2;
+          return distance2(xu, at(c[0]), at(c[1]), at(c[2]), s_.reach2) <= s_.reach2;
         }))
       return false;
     for (uint32_t t : fan_[v])
@@ -609,8 +623,7 @@ DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell) {
     const Triangle& c = current.triangles[t];
     for (uint32_t p = current.head[t]; p != kNone; p = s.next[p]) {
       const Vec3f q = s.point(p);
-      outcome.max_error =
-          std::max(outcome.max_error, double(length(closest_point_on_triangle(q, x[c[0]], x[c[1]], x[c[2]]) - q)));
+      outcome.max_error = std::max(outcome.max_error, double(std::sqrt(distance2(q, x[c[0]], x[c[1]], x[c[2]], 0))));
     }
   }
   mesh.triangles.swap(current.triangles);

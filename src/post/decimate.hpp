@@ -35,7 +35,8 @@ struct DecimateOutcome {
   std::size_t triangles_after = 0;
   std::size_t collapses = 0, flips = 0;
   /// The largest distance of one of the input's points (vertices, edge midpoints, triangle
-  /// centroids) from the simplified triangle that holds it: at most 0.55 of the bound.
+  /// centroids) from the simplified triangle that holds it: at most 0.55 of the bound (a little
+  /// more on the near-degenerate triangles of a clip's cap, where float arithmetic blurs it).
   double max_error = 0;
   int rounds = 0;  ///< the passes over shifted patch grids
 };

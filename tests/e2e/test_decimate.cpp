@@ -16,6 +16,7 @@
 #include <unordered_map>
 
 #include "mesh/closest_point_impl.hpp"
+#include "post/clip.hpp"
 #include "post/decimate.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
@@ -259,6 +260,28 @@ TEST(Decimate, KeepsAClipsCutAsItIs) {
   const auto before = open(cut.mesh), after = open(simple.mesh);
   EXPECT_GT(before.size(), 100u);
   EXPECT_EQ(before, after);
+}
+
+// A capped clip: the cap's fans of thin triangles (valence up to 185, angles down to 0°) stay
+// closed, the bound holds both ways, and the stage's own measure stays under it (a triangle of no
+// area is measured by its edges).
+TEST(Decimate, CappedClipStaysClosedWithinTheBound) {
+  if (clip_cap_unavailable()) GTEST_SKIP() << clip_cap_unavailable();
+  const ParticleSet ps = read_particles(test::data_file("ply/dam_break_frame_9_6859_particles.ply"));
+  Params p;
+  p.backend = Backend::cpu;
+  p.clip_box = {-1.5, 0.06, -0.5, -0.5, 1, 0.5};
+  p.clip_cap = true;
+  const Result capped = reconstruct(ps, p);
+  p.decimate = 0.02;
+  const Result simple = reconstruct(ps, p);
+  const double d = capped.params.spacing;
+  EXPECT_LT(simple.mesh.triangles.size(), capped.mesh.triangles.size() / 2);
+  EXPECT_TRUE(analyze_topology(simple.mesh).watertight());
+  EXPECT_LE(simple.stats.decimate_error, 0.02 * d);
+  const float cell = float(0.25 * d);
+  EXPECT_LE(std::max(farthest(capped.mesh, simple.mesh, cell, 50000), farthest(simple.mesh, capped.mesh, cell, 50000)),
+            0.02 * d);
 }
 
 TEST(Decimate, ZeroChangesNothingAndBadValuesAreRefused) {

@@ -29,9 +29,9 @@ double resident_bytes() {
 /// (peak RSS over the baseline / field blocks, default field): 16-27 KB; 24 KB is the estimate,
 /// the 90 % default share of the grant the margin.
 constexpr double kRunBytesPerBandBlock = 24e3;
-/// What the simplification adds a block where it runs (--decimate): the points, quadrics and
-/// patches it keeps over the finished mesh. Measured 26-27 KB a block (the dam break 23, the 300k
-/// splash at E = 0.02).
+/// What the simplification adds a block where it runs (--decimate): the points, normals and
+/// patches it keeps over the finished mesh. Measured 18-26 KB a block (the dam break 23, the
+/// SPHysics tank at E = 0.02).
 constexpr double kDecimateBytesPerBandBlock = 28e3;
 
 }  // namespace

@@ -1,8 +1,10 @@
 // meniscus — simplification of the finished mesh that keeps its triangles good: half-edge
 // collapses (a vertex removed into a neighbour; no vertex moves, so normals and attributes follow
-// unchanged) ordered by Garland & Heckbert's quadric error ("Surface Simplification Using Quadric
-// Error Metrics", SIGGRAPH 1997), interleaved with valence-balancing edge flips (as in Botsch &
-// Kobbelt's isotropic remeshing, "A Remeshing Approach to Multiresolution Modeling", SGP 2004).
+// unchanged) ordered by the area-weighted squared distance the collapse moves the vertex's
+// triangles' planes (Garland & Heckbert's quadric, "Surface Simplification Using Quadric Error
+// Metrics", SIGGRAPH 1997, of the current surface: memoryless, as Lindstrom & Turk's "Fast and
+// Memory Efficient Polygonal Simplification", 1998, so no vertex carries one), interleaved with valence-balancing edge
+// flips (as in Botsch & Kobbelt's isotropic remeshing, "A Remeshing Approach to Multiresolution Modeling", SGP 2004).
 // Every operation is refused unless, after it:
 //   - every point of the input surface that keeps the bound (its vertices, edge midpoints and
 //     triangle centroids) lies within 0.55 of the bound of the triangle that holds it: an

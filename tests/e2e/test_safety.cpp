@@ -330,17 +330,17 @@ void expect_refused_within(const std::string& args, double max_memory_gb, const 
   EXPECT_LT(r.seconds, 30) << args;
 }
 
-// --decimate's points and quadrics count in the frame's estimate: the dam break 23 (61 MB at its
-// peak, 102 MB with --decimate) surfaces within 90 MB, and is refused before its field with it.
+// --decimate's points count in the frame's estimate: the dam break 23 (61 MB at its peak, 87 MB
+// with --decimate) surfaces within 80 MB, and is refused before its field with it.
 TEST(Safety, DecimationCountsInTheMemoryEstimate) {
   TempDir t;
   const std::string frame = test::data_file("ply/dam_break_frame_23_24389_particles.ply"),
                     out = " -q -o " + t.file("m.ply");
   if (!test::kSanitized) {
-    const test::Measured ok = test::run_measured(meniscus("surface " + frame + out + " --max-memory 0.09"));
+    const test::Measured ok = test::run_measured(meniscus("surface " + frame + out + " --max-memory 0.08"));
     EXPECT_EQ(ok.status, 0) << ok.output;
   }
-  expect_refused_within("surface " + frame + out + " --decimate 0.02", 0.09, "smoothing and --decimate");
+  expect_refused_within("surface " + frame + out + " --decimate 0.02", 0.08, "smoothing and --decimate");
 }
 
 TEST(Safety, GzipBombsAndEndlessFilesAreRefusedWithinTheMemoryLimit) {

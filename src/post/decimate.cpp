@@ -39,7 +39,10 @@ constexpr int kRounds = 3;
 /// refused. Each entry is written only by the patch that holds the triangle or the
 /// vertex (one patch each), so the patches run in parallel without locks.
 struct Shared {
-  const std::vector<Vec3f>& x;
+  const std::vector<Vec3f>& x;  ///< the input's vertices
+  std::vector<Vec3f> pos;       ///< the vertices where they are now (a collapse may move one)
+  std::vector<Vec3f>& normals;  ///< the mesh's, with its attributes: a moved vertex takes the mean
+  std::vector<Attribute>& attributes;
   std::vector<Vec3f> points;           ///< the input's triangles' centroids, then its edges' midpoints
   std::vector<uint32_t> next;          ///< the next point of the same triangle
   std::vector<uint8_t> locked;         ///< on a border or a non-manifold edge of the input
@@ -52,6 +55,17 @@ struct Shared {
 
   /// Point p: the input's vertex p, or points[p - vertices].
   Vec3f point(uint32_t p) const { return p < x.size() ? x[p] : points[p - x.size()]; }
+
+  /// Vertex v moved halfway to u, which it absorbed: its normal and (non-integer) attributes
+  /// become the two's mean.
+  void merge(uint32_t u, uint32_t v) {
+    if (v < normals.size() && u < normals.size()) normals[v] = normalized(normals[v] + normals[u]);
+    for (Attribute& a : attributes) {
+      if (a.integer || a.size() != x.size()) continue;
+      const std::size_t c = std::size_t(a.components);
+      for (std::size_t k = 0; k < c; ++k) a.values[v * c + k] = 0.5f * (a.values[v * c + k] + a.values[u * c + k]);
+    }
+  }
 };
 
 /// The squared distance from q to triangle abc. Ericson's closest point answers a corner for a
@@ -152,6 +166,8 @@ class PatchSimplifier {
         head_(std::move(triangles.head)),
         alive_(tris_.size(), 1) {
     const std::size_t n = global_.size();
+    pos_.resize(n);
+    for (uint32_t v = 0; v < n; ++v) pos_[v] = s_.pos[global_[v]];
     fan_.reset(n);
     for (uint32_t t = 0; t < tris_.size(); ++t)
       for (uint32_t v : tris_[t]) fan_.push(v, t);
@@ -173,8 +189,10 @@ class PatchSimplifier {
     }
   }
 
-  /// The surviving triangles, in the mesh's numbering, with their points.
+  /// The surviving triangles, in the mesh's numbering, with their points; the vertices that moved.
   void emit(Owned& out) const {
+    for (uint32_t v = 0; v < global_.size(); ++v)
+      if (interior_[v]) s_.pos[global_[v]] = pos_[v];
     for (uint32_t t = 0; t < tris_.size(); ++t)
       if (alive_[t]) {
         out.triangles.push_back({global_[tris_[t][0]], global_[tris_[t][1]], global_[tris_[t][2]]});
@@ -183,7 +201,9 @@ class PatchSimplifier {
   }
 
  private:
-  Vec3f at(uint32_t v) const { return s_.x[global_[v]]; }
+  Vec3f at(uint32_t v) const { return pos_[v]; }
+  /// Where vertex v is in the operation being weighed: moved_ at place_, the others where they are.
+  Vec3f now(uint32_t v) const { return v == moved_ ? place_ : pos_[v]; }
 
   static uint32_t third(const Triangle& t, uint32_t a, uint32_t b) {
     for (uint32_t c : t)
@@ -256,7 +276,7 @@ class PatchSimplifier {
   void prepare(const std::vector<std::pair<uint32_t, Triangle>>& to) {
     for (std::size_t k = prepared_; k < to.size(); ++k) {
       const Triangle& c = to[k].second;
-      targets_[k].prepare(at(c[0]), at(c[1]), at(c[2]));
+      targets_[k].prepare(now(c[0]), now(c[1]), now(c[2]));
     }
     prepared_ = to.size();
   }
@@ -271,11 +291,12 @@ class PatchSimplifier {
     }
   }
 
-  /// Whether the new triangle c (replacing `old`) is good: it turns less than 45° from old and
-  /// less than 60° from the input's normals at its corners, and its smallest angle is at least 15°
-  /// or at least old's.
+  /// Whether the new triangle c (replacing `old`; c's corners read where they are in the
+  /// operation, old's where they are now) is good: it turns less than 45° from old and less than
+  /// 60° from the input's normals at its corners, and its smallest angle is at least 15° or at
+  /// least old's.
   bool good(const Triangle& c, const Triangle& old) const {
-    const Vec3f a = at(c[0]), b = at(c[1]), d = at(c[2]);
+    const Vec3f a = now(c[0]), b = now(c[1]), d = now(c[2]);
     const Vec3f n = cross(b - a, d - a);
     const Vec3f o = cross(at(old[1]) - at(old[0]), at(old[2]) - at(old[0]));
     if (!(dot(n, o) >= kTurnCos * std::sqrt(length2(n) * length2(o)))) return false;
@@ -289,54 +310,74 @@ class PatchSimplifier {
   std::size_t valence(uint32_t v) const { return fan_.size(v); }
   std::size_t floor_of(uint32_t v) const { return s_.floor_valence[global_[v]]; }
 
-  bool can_collapse(uint32_t u, uint32_t v) {
-    if (!interior_[v]) return false;
+  /// can_collapse's answer: yes; no whatever v's place (the topology or the valences forbid it);
+  /// no with v there (a triangle or the bound), which v elsewhere might pass.
+  enum Verdict { kYes, kNever, kNotHere };
+
+  /// Whether u can collapse into v, v staying where it is or (`middle`) moving halfway to u; if so,
+  /// from_, to_ and place_ say what collapse() does.
+  Verdict can_collapse(uint32_t u, uint32_t v, bool middle) {
+    if (!interior_[v]) return kNever;
     std::array<uint32_t, 2> shared{kNone, kNone};
     std::size_t count = 0;
     for (uint32_t t : fan_[u])
       if (has(tris_[t], v)) {
-        if (count == 2) return false;
+        if (count == 2) return kNever;
         shared[count++] = t;
       }
-    if (count != 2) return false;
+    if (count != 2) return kNever;
     const uint32_t a = third(tris_[shared[0]], u, v), b = third(tris_[shared[1]], u, v);
-    if (a == b) return false;
-    if (valence(a) - 1 < floor_of(a) || valence(b) - 1 < floor_of(b)) return false;
-    if (valence(u) + valence(v) - 4 > std::max(kMaxValence, valence(v))) return false;
+    if (a == b) return kNever;
+    if (valence(a) - 1 < floor_of(a) || valence(b) - 1 < floor_of(b)) return kNever;
+    if (valence(u) + valence(v) - 4 > std::max(kMaxValence, valence(v))) return kNever;
     ring(u, ring_u_);
     for (uint32_t w : ring_u_)
-      if (!interior_[w]) return false;
+      if (!interior_[w]) return kNever;
     ring(v, ring_v_);
     std::size_t common = 0;
     for (uint32_t w : ring_u_) common += std::find(ring_v_.begin(), ring_v_.end(), w) != ring_v_.end();
-    if (common != 2) return false;
+    if (common != 2) return kNever;
+    moved_ = v;
+    place_ = middle ? (at(u) + at(v)) * 0.5f : at(v);
     to_.clear();
     for (uint32_t t : fan_[u]) {
       if (t == shared[0] || t == shared[1]) continue;
       Triangle c = tris_[t];
       for (uint32_t& k : c)
         if (k == u) k = v;
-      if (!good(c, tris_[t])) return false;
+      if (!good(c, tris_[t])) return kNotHere;
       to_.push_back({t, c});
     }
+    if (middle)
+      for (uint32_t t : fan_[v])
+        if (t != shared[0] && t != shared[1] && !good(tris_[t], tris_[t])) return kNotHere;
     // u itself first: the point most likely to be too far, checked before all the others.
     prepared_ = 0;
     prepare(to_);
     const Vec3f xu = at(u);
     if (std::none_of(targets_.begin(), targets_.begin() + std::ptrdiff_t(to_.size()),
                      [&](const Target& m) { return m.within(xu, s_.reach2); }))
-      return false;
+      return kNotHere;
+    from_.assign(fan_[u].begin(), fan_[u].end());
     for (uint32_t t : fan_[v])
-      if (t != shared[0] && t != shared[1]) to_.push_back({t, tris_[t]});
-    if (!rehome(fan_[u], to_)) return false;
+      if (t != shared[0] && t != shared[1]) {
+        to_.push_back({t, tris_[t]});
+        if (middle) from_.push_back(t);  // v's triangles moved too: their points are checked again
+      }
+    if (!rehome(from_, to_)) return kNotHere;
     shared_ = shared;
-    return true;
+    return kYes;
   }
 
   void erase_from_fan(uint32_t v, uint32_t t) { fan_.erase(v, t); }
 
   void collapse(uint32_t u, uint32_t v) {
-    commit_rehome(fan_[u], to_);
+    commit_rehome(from_, to_);
+    if (!(place_ == pos_[v])) {
+      pos_[v] = place_;
+      s_.merge(global_[u], global_[v]);
+    }
+    moved_ = kNone;
     for (uint32_t t : shared_) {
       alive_[t] = 0;
       for (uint32_t c : tris_[t]) erase_from_fan(c, t);
@@ -423,9 +464,20 @@ class PatchSimplifier {
       std::sort(targets.begin(), targets.end());
       // Settled only where the patch's seam did not stop it: a later pass tries the others again.
       s_.settled[global_[u]] = std::all_of(scratch_.begin(), scratch_.end(), [&](uint32_t w) { return interior_[w]; });
+      // Into v where it is (the surface's own vertex); where a triangle or the bound refuses that
+      // (the surface bends there), halfway, for the cheapest v the valences allow (for all of them:
+      // 1-2 % fewer triangles, 5-10 % more time).
+      bool halfway = true;
       for (const auto& [ignored, v] : targets) {
-        if (!can_collapse(u, v)) continue;
+        const Verdict there = can_collapse(u, v, false);
+        if (there == kNever) continue;
+        if (there == kNotHere) {
+          if (!halfway) continue;
+          halfway = false;
+          if (can_collapse(u, v, true) != kYes) continue;
+        }
         touched = ring_u_;
+        if (!(place_ == at(v))) touched.insert(touched.end(), ring_v_.begin(), ring_v_.end());
         collapse(u, v);
         for (uint32_t w : touched) {
           s_.settled[global_[w]] = 0;
@@ -457,6 +509,7 @@ class PatchSimplifier {
     if (std::find(ring_v_.begin(), ring_v_.end(), d) != ring_v_.end()) return false;
     // t = (a, b, c) in some rotation, o = (b, a, d): the new triangles (c, a, d) and (d, b, c).
     const Triangle made_t{c, a, d}, made_o{d, b, c};
+    moved_ = kNone;
     for (const Triangle& m : {made_t, made_o})
       if (!good(m, tris_[t]) || !good(m, tris_[o])) return false;
     pair_ = {t, o};
@@ -507,6 +560,10 @@ class PatchSimplifier {
   std::array<Target, 2 * Fans::kSlots> targets_;
   std::size_t prepared_ = 0;
   std::array<uint32_t, 2> shared_{};
+  std::vector<Vec3f> pos_;      ///< the local vertices where they are now
+  std::vector<uint32_t> from_;  ///< the triangles whose points a collapse hands on
+  uint32_t moved_ = kNone;      ///< the vertex the operation weighed moves, to place_
+  Vec3f place_{};
 };
 
 /// One pass: `current` cut into patches by a grid of side `side` shifted by `offset`, each
@@ -592,6 +649,9 @@ DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell) {
   const std::vector<Vec3f>& x = mesh.vertices;
   const std::size_t nv = x.size(), nt = mesh.triangles.size();
   Shared s{x,
+           x,
+           mesh.normals,
+           mesh.attributes,
            {},
            {},
            std::vector<uint8_t>(nv, 0),
@@ -671,10 +731,12 @@ DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell) {
     const Triangle& c = current.triangles[t];
     for (uint32_t p = current.head[t]; p != kNone; p = s.next[p]) {
       const Vec3f q = s.point(p);
-      outcome.max_error = std::max(outcome.max_error, double(std::sqrt(distance2(q, x[c[0]], x[c[1]], x[c[2]], 0))));
+      outcome.max_error =
+          std::max(outcome.max_error, double(std::sqrt(distance2(q, s.pos[c[0]], s.pos[c[1]], s.pos[c[2]], 0))));
     }
   }
   mesh.triangles.swap(current.triangles);
+  mesh.vertices = std::move(s.pos);
   drop_unused_vertices(mesh);
   outcome.triangles_after = mesh.triangles.size();
   return outcome;

@@ -1,10 +1,15 @@
-// meniscus — simplification of the finished mesh that keeps its triangles good: half-edge
-// collapses (a vertex removed into a neighbour; no vertex moves, so normals and attributes follow
-// unchanged) ordered by the area-weighted squared distance the collapse moves the vertex's
-// triangles' planes (Garland & Heckbert's quadric, "Surface Simplification Using Quadric Error
-// Metrics", SIGGRAPH 1997, of the current surface: memoryless, as Lindstrom & Turk's "Fast and
-// Memory Efficient Polygonal Simplification", 1998, so no vertex carries one), interleaved with valence-balancing edge
-// flips (as in Botsch & Kobbelt's isotropic remeshing, "A Remeshing Approach to Multiresolution Modeling", SGP 2004).
+// meniscus — simplification of the finished mesh that keeps its triangles good: edge collapses
+// ordered by the area-weighted squared distance the collapse moves the removed vertex's triangles'
+// planes (Garland & Heckbert's quadric, "Surface Simplification Using Quadric Error Metrics",
+// SIGGRAPH 1997, of the current surface: memoryless, as in Lindstrom & Turk's "Fast and Memory
+// Efficient Polygonal Simplification", 1998, so no vertex carries one), interleaved with
+// valence-balancing edge flips (as in Botsch & Kobbelt's isotropic remeshing, "A Remeshing
+// Approach to Multiresolution Modeling", SGP 2004). A collapse first removes u into its neighbour
+// v where v is (the surface's own vertex, its normal and attributes unchanged); where the surface
+// bends too much for that within the bound, v moves halfway to u (the chord's midpoint stays
+// nearer a curved surface than either end), taking the mean of the two's normals and non-integer
+// attributes, for its cheapest neighbour: 7-14 % fewer triangles at the same bound on the
+// bundled frames, for 15 % more time.
 // Every operation is refused unless, after it:
 //   - every point of the input surface that keeps the bound (its vertices, edge midpoints and
 //     triangle centroids) lies within 0.55 of the bound of the triangle that holds it: an
@@ -17,7 +22,7 @@
 //     none turns more than 45° from the triangle it replaces or 60° from the input's normals at
 //     its corners (so no fold).
 // meshoptimizer (Debian's 0.18) was the engine before: it has no control of valence or angles, and
-// its collapses had to be checked by sampling, 8-13 times slower than this on the bundled frames.
+// its collapses had to be checked by sampling, 7-10 times slower than this on the bundled frames.
 // The mesh is cut into patches, the cells of a grid anchored at the origin (8 d wide in the
 // pipeline: about 2,000 triangles of flat water), simplified in parallel with their seams kept (a
 // vertex changes only where all its triangles are in the patch); up to 3 passes over grids

@@ -330,7 +330,7 @@ void expect_refused_within(const std::string& args, double max_memory_gb, const 
   EXPECT_LT(r.seconds, 30) << args;
 }
 
-// --decimate's points count in the frame's estimate: the dam break 23 (61 MB at its peak, 87 MB
+// --decimate's points count in the frame's estimate: the dam break 23 (61 MB at its peak, 89 MB
 // with --decimate) surfaces within 80 MB, and is refused before its field with it.
 TEST(Safety, DecimationCountsInTheMemoryEstimate) {
   TempDir t;

@@ -15,6 +15,7 @@
 #include "mesh/closest_point_impl.hpp"
 #include "mesh/compact.hpp"
 #include "mesh/directed_edges.hpp"
+#include "mesh/normals.hpp"
 
 namespace meniscus {
 
@@ -310,6 +311,13 @@ class PatchSimplifier {
   std::size_t valence(uint32_t v) const { return fan_.size(v); }
   std::size_t floor_of(uint32_t v) const { return s_.floor_valence[global_[v]]; }
 
+  /// Whether the valences allow u into v, where a and b are the corners across edge uv: neither
+  /// falls under its floor, and v does not climb over 9 (or over its own valence).
+  bool valences_allow(uint32_t u, uint32_t v, uint32_t a, uint32_t b) const {
+    return valence(a) - 1 >= floor_of(a) && valence(b) - 1 >= floor_of(b) &&
+           valence(u) + valence(v) - 4 <= std::max(kMaxValence, valence(v));
+  }
+
   /// can_collapse's answer: yes; no whatever v's place (the topology or the valences forbid it);
   /// no with v there (a triangle or the bound), which v elsewhere might pass.
   enum Verdict { kYes, kNever, kNotHere };
@@ -328,8 +336,7 @@ class PatchSimplifier {
     if (count != 2) return kNever;
     const uint32_t a = third(tris_[shared[0]], u, v), b = third(tris_[shared[1]], u, v);
     if (a == b) return kNever;
-    if (valence(a) - 1 < floor_of(a) || valence(b) - 1 < floor_of(b)) return kNever;
-    if (valence(u) + valence(v) - 4 > std::max(kMaxValence, valence(v))) return kNever;
+    if (!valences_allow(u, v, a, b)) return kNever;
     ring(u, ring_u_);
     for (uint32_t w : ring_u_)
       if (!interior_[w]) return kNever;
@@ -456,9 +463,7 @@ class PatchSimplifier {
         uint32_t b = kNone;
         for (uint32_t o : fan)
           if (after(u, o) != v && third(tris_[o], u, after(u, o)) == v) b = after(u, o);
-        if (b == kNone || !interior_[v] || valence(a) - 1 < floor_of(a) || valence(b) - 1 < floor_of(b) ||
-            valence(u) + valence(v) - 4 > std::max(kMaxValence, valence(v)))
-          return;
+        if (b == kNone || !interior_[v] || !valences_allow(u, v, a, b)) return;
         targets.push_back({price, v});
       });
       std::sort(targets.begin(), targets.end());
@@ -656,7 +661,7 @@ DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell) {
            {},
            std::vector<uint8_t>(nv, 0),
            std::vector<uint8_t>(nv, 0),
-           std::vector<Vec3f>(nv, Vec3f{0, 0, 0}),
+           {},
            std::vector<uint8_t>(nv, 0),
            float(kMargin * kMargin * bound * bound)};
   // Borders and edges used more than once in a direction: their vertices stay.
@@ -671,31 +676,16 @@ DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell) {
   }
   Owned current{{}, std::vector<uint32_t>(nt, kNone)};
   {
-    // Each vertex's triangles (compressed rows, in triangle order), each triangle's plane.
     const std::vector<Triangle>& tris = mesh.triangles;
-    std::vector<uint32_t> first(nv + 1, 0), incident(3 * nt);
-    for (const Triangle& c : tris)
-      for (uint32_t v : c) ++first[v + 1];
-    for (std::size_t v = 0; v < nv; ++v) first[v + 1] += first[v];
-    {
-      std::vector<uint32_t> at(first.begin(), first.end() - 1);
-      for (uint32_t t = 0; t < nt; ++t)
-        for (uint32_t v : tris[t]) incident[at[v]++] = t;
-    }
-    std::vector<Vec3f> plane(nt);  // the normal, as long as twice the area
-    std::vector<uint32_t> mids(nt + 1, 0);
-    for_each_index(nt, 4096, [&](std::size_t t) {
+    s.normal = vertex_normals(x, tris);
+    // Each vertex's valence and first triangle; each triangle's first edge midpoint.
+    std::vector<uint32_t> count(nv, 0), first(nv, kNone), mids(nt + 1, 0);
+    for (uint32_t t = 0; t < nt; ++t) {
       const Triangle& c = tris[t];
-      plane[t] = cross(x[c[1]] - x[c[0]], x[c[2]] - x[c[0]]);
-      mids[t + 1] = uint32_t(c[0] < c[1]) + uint32_t(c[1] < c[2]) + uint32_t(c[2] < c[0]);
-    });
-    for (std::size_t t = 0; t < nt; ++t) mids[t + 1] += mids[t];
-    for_each_index(nv, 1024, [&](std::size_t v) {
-      Vec3f normal{0, 0, 0};
-      for (uint32_t k = first[v]; k < first[v + 1]; ++k) normal += plane[incident[k]];
-      s.normal[v] = normalized(normal);
-      s.floor_valence[v] = uint8_t(std::min<uint32_t>(kMinValence, first[v + 1] - first[v]));
-    });
+      for (uint32_t v : c) ++count[v], first[v] = std::min(first[v], t);
+      mids[t + 1] = mids[t] + uint32_t(c[0] < c[1]) + uint32_t(c[1] < c[2]) + uint32_t(c[2] < c[0]);
+    }
+    for (std::size_t v = 0; v < nv; ++v) s.floor_valence[v] = uint8_t(std::min<uint32_t>(kMinValence, count[v]));
     // The points: the vertices (each held by its first triangle), the triangles' centroids and
     // the edges' midpoints (each held by the triangle where the edge runs from the lower index).
     s.points.resize(nt + mids[nt]);
@@ -715,7 +705,7 @@ DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell) {
         if (from < to) s.points[mid] = (x[from] + x[to]) * 0.5f, hold(nv + mid++);
       }
       for (uint32_t v : c)
-        if (incident[first[v]] == t) hold(v);
+        if (first[v] == t) hold(v);
     });
   }
   current.triangles = std::move(mesh.triangles);  // the simplification's input from here on

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <queue>
@@ -100,6 +102,12 @@ struct Target {
     n = m * (1 / std::sqrt(l2));
     ea = cross(n, b - a), eb = cross(n, c - b), ec = cross(n, a - c);
   }
+  /// Whether q lies within reach of the plane over the triangle (a sure yes, without distance2).
+  bool over(Vec3f q, float reach2) const {
+    if (!flat) return false;
+    const float h = dot(q - a, n);
+    return h * h <= reach2 && dot(q - a, ea) >= 0 && dot(q - b, eb) >= 0 && dot(q - c, ec) >= 0;
+  }
   bool within(Vec3f q, float reach2) const {
     if (flat) {
       const float h = dot(q - a, n);
@@ -166,6 +174,18 @@ class PatchSimplifier {
         tris_(std::move(triangles.triangles)),
         head_(std::move(triangles.head)),
         alive_(tris_.size(), 1) {
+    // The triangles' points, copied here in the order of their lists: every operation reads them
+    // again (7 times each on the bundled frames), from the patch's memory, not the mesh's.
+    for (uint32_t& h : head_) {
+      uint32_t* link = &h;
+      for (uint32_t p = h; p != kNone; p = s_.next[p]) {
+        *link = uint32_t(point_.size());
+        point_.push_back(s_.point(p));
+        point_id_.push_back(p);
+        next_.push_back(kNone);
+        link = &next_.back();
+      }
+    }
     const std::size_t n = global_.size();
     pos_.resize(n);
     for (uint32_t v = 0; v < n; ++v) pos_[v] = s_.pos[global_[v]];
@@ -197,7 +217,9 @@ class PatchSimplifier {
     for (uint32_t t = 0; t < tris_.size(); ++t)
       if (alive_[t]) {
         out.triangles.push_back({global_[tris_[t][0]], global_[tris_[t][1]], global_[tris_[t][2]]});
-        out.head.push_back(head_[t]);
+        const auto id = [&](uint32_t p) { return p == kNone ? kNone : point_id_[p]; };
+        out.head.push_back(id(head_[t]));
+        for (uint32_t p = head_[t]; p != kNone; p = next_[p]) s_.next[point_id_[p]] = id(next_[p]);
       }
   }
 
@@ -217,21 +239,25 @@ class PatchSimplifier {
   bool single_fan(uint32_t v) const {
     const std::span<const uint32_t> f = fan_[v];
     if (f.size() < 3) return false;
-    const auto after = [&](uint32_t t) {
-      const Triangle& c = tris_[t];
-      const int k = c[0] == v ? 0 : (c[1] == v ? 1 : 2);
-      return std::pair{c[std::size_t((k + 1) % 3)], c[std::size_t((k + 2) % 3)]};
-    };
-    uint32_t t = f[0];
+    std::array<uint32_t, Fans::kSlots> ahead, behind;  // triangle k is (v, ahead[k], behind[k])
+    for (std::size_t k = 0; k < f.size(); ++k) {
+      const Triangle& c = tris_[f[k]];
+      const int i = c[0] == v ? 0 : (c[1] == v ? 1 : 2);
+      ahead[k] = c[std::size_t((i + 1) % 3)], behind[k] = c[std::size_t((i + 2) % 3)];
+    }
+    std::size_t k = 0;
     for (std::size_t seen = 1;; ++seen) {
-      const uint32_t want = after(t).second;  // the next triangle's corner after v is this one's before v
-      uint32_t next = kNone;
-      for (uint32_t o : f)
-        if (after(o).first == want) next = next == kNone ? o : kNone - 1;
-      if (next >= kNone - 1) return false;
-      if (next == f[0]) return seen == f.size();
+      // The next triangle's corner after v is this one's before v.
+      std::size_t next = f.size();
+      for (std::size_t j = 0; j < f.size(); ++j)
+        if (ahead[j] == behind[k]) {
+          if (next != f.size()) return false;
+          next = j;
+        }
+      if (next == f.size()) return false;
+      if (next == 0) return seen == f.size();
       if (seen > f.size()) return false;
-      t = next;
+      k = next;
     }
   }
 
@@ -259,10 +285,16 @@ class PatchSimplifier {
       uint32_t same = kNone;
       for (uint32_t k = 0; k < to.size(); ++k)
         if (to[k].first == t) same = k;
-      for (uint32_t p = head_[t]; p != kNone; p = s_.next[p]) {
-        const Vec3f q = s_.point(p);
+      for (uint32_t p = head_[t]; p != kNone; p = next_[p]) {
+        const Vec3f q = point_[p];
+        // The triangle it lies over first (the one that held it, then the others), then the
+        // one within reach of it: the exact distance only where no projection falls inside.
+        const auto over = [&](uint32_t k) { return targets_[k].over(q, s_.reach2); };
         const auto near = [&](uint32_t k) { return targets_[k].within(q, s_.reach2); };
-        uint32_t where = same != kNone && near(same) ? same : kNone;
+        uint32_t where = same != kNone && over(same) ? same : kNone;
+        for (uint32_t k = 0; where == kNone && k < to.size(); ++k)
+          if (k != same && over(k)) where = k;
+        if (where == kNone && same != kNone && near(same)) where = same;
         for (uint32_t k = 0; where == kNone && k < to.size(); ++k)
           if (k != same && near(k)) where = k;
         if (where == kNone) return false;
@@ -287,7 +319,7 @@ class PatchSimplifier {
     for (uint32_t t : from) head_[t] = kNone;
     for (std::size_t i = 0; i < moving_.size(); ++i) {
       const uint32_t t = to[assign_[i]].first;
-      s_.next[moving_[i]] = head_[t];
+      next_[moving_[i]] = head_[t];
       head_[t] = moving_[i];
     }
   }
@@ -415,30 +447,30 @@ class PatchSimplifier {
   template <class Each>
   void costs(uint32_t u, Each&& each) const {
     const std::span<const uint32_t> fan = fan_[u];
-    std::array<Vec3f, Fans::kSlots> plane;  // the normal, scaled to (twice the area)^(1/2)
+    // Σ m mᵀ / |m| over u's triangles (m: the normal, |m| twice the area): (m·d)² / |m| is the
+    // squared distance d moves the plane times twice the area.
+    double q[6] = {0, 0, 0, 0, 0, 0};  // xx, xy, xz, yy, yz, zz
     const Vec3f xu = at(u);
-    for (std::size_t k = 0; k < fan.size(); ++k) {
-      const Triangle& c = tris_[fan[k]];
-      const Vec3f m = cross(at(c[1]) - at(c[0]), at(c[2]) - at(c[0]));
-      const float l = length(m);
-      plane[k] = l > 0 ? m * (1 / std::sqrt(l)) : Vec3f{0, 0, 0};
-    }
     for (uint32_t t : fan) {
-      const uint32_t v = after(u, t);
+      const Triangle& c = tris_[t];
+      const Vec3f m = cross(at(c[1]) - at(c[0]), at(c[2]) - at(c[0]));
+      const double l = length(m);
+      if (!(l > 0)) continue;
+      const double x = m[0], y = m[1], z = m[2], w = 1 / l;
+      q[0] += w * x * x, q[1] += w * x * y, q[2] += w * x * z, q[3] += w * y * y, q[4] += w * y * z, q[5] += w * z * z;
+    }
+    for (std::size_t k = 0; k < fan.size(); ++k) {
+      const uint32_t v = after(u, fan[k]);
       const Vec3f d = at(v) - xu;
-      double sum = 0;
-      for (std::size_t k = 0; k < fan.size(); ++k) {
-        const double h = dot(plane[k], d);
-        sum += h * h;
-      }
-      each(t, v, sum);
+      const double x = d[0], y = d[1], z = d[2];
+      each(k, v, q[0] * x * x + q[3] * y * y + q[5] * z * z + 2 * (q[1] * x * y + q[2] * x * z + q[4] * y * z));
     }
   }
 
   /// u's cheapest collapse's cost.
   double cost(uint32_t u) const {
     double best = INFINITY;
-    costs(u, [&](uint32_t, uint32_t, double c) { best = std::min(best, c); });
+    costs(u, [&](std::size_t, uint32_t, double c) { best = std::min(best, c); });
     return best;
   }
 
@@ -458,11 +490,18 @@ class PatchSimplifier {
       // can_collapse), by cost.
       targets.clear();
       const std::span<const uint32_t> fan = fan_[u];
-      costs(u, [&](uint32_t t, uint32_t v, double price) {
-        const uint32_t a = after(v, t);  // t = (u, v, a); the other side (v, u, b)
+      // Each triangle of u's fan, (u, ahead, behind).
+      std::array<uint32_t, Fans::kSlots> ahead, behind;
+      for (std::size_t k = 0; k < fan.size(); ++k) {
+        const Triangle& corners = tris_[fan[k]];
+        const int i = corners[0] == u ? 0 : (corners[1] == u ? 1 : 2);
+        ahead[k] = corners[std::size_t((i + 1) % 3)], behind[k] = corners[std::size_t((i + 2) % 3)];
+      }
+      costs(u, [&](std::size_t k, uint32_t v, double price) {
+        const uint32_t a = behind[k];  // fan[k] = (u, v, a); the other side (v, u, b)
         uint32_t b = kNone;
-        for (uint32_t o : fan)
-          if (after(u, o) != v && third(tris_[o], u, after(u, o)) == v) b = after(u, o);
+        for (std::size_t j = 0; j < fan.size(); ++j)
+          if (behind[j] == v && ahead[j] != v) b = ahead[j];
         if (b == kNone || !interior_[v] || !valences_allow(u, v, a, b)) return;
         targets.push_back({price, v});
       });
@@ -485,7 +524,8 @@ class PatchSimplifier {
         if (!(place_ == at(v))) touched.insert(touched.end(), ring_v_.begin(), ring_v_.end());
         collapse(u, v);
         for (uint32_t w : touched) {
-          s_.settled[global_[w]] = 0;
+          // v's ring can hold a vertex on the seam, which a patch beside may clear at once.
+          std::atomic_ref<uint8_t>(s_.settled[global_[w]]).store(0, std::memory_order_relaxed);
           if (interior_[w]) heap.push({cost(w), w, ++stamp_[w]});
         }
         break;
@@ -554,7 +594,11 @@ class PatchSimplifier {
   Shared& s_;
   std::vector<uint32_t> global_;
   std::vector<Triangle> tris_;
-  std::vector<uint32_t> head_;  ///< per triangle, its first point
+  std::vector<uint32_t> head_;  ///< per triangle, its first point (in point_)
+  /// The points of the patch's triangles: where they are, their ids in Shared, the next of the
+  /// same triangle.
+  std::vector<Vec3f> point_;
+  std::vector<uint32_t> point_id_, next_;
   std::vector<uint8_t> alive_, interior_;
   Fans fan_;
   std::vector<uint32_t> stamp_;
@@ -577,8 +621,9 @@ Owned simplify_pass(Shared& s, const Owned& current, double side, double offset,
   const std::vector<Vec3f>& x = s.x;
   const std::vector<Triangle>& tris = current.triangles;
   std::vector<uint32_t> incident(x.size(), 0);
-  for (const Triangle& t : tris)
-    for (uint32_t v : t) ++incident[v];
+  for_each_index(tris.size(), 4096, [&](std::size_t t) {
+    for (uint32_t v : tris[t]) std::atomic_ref<uint32_t>(incident[v]).fetch_add(1, std::memory_order_relaxed);
+  });
   // Each triangle's cell, packed 21 bits an axis from the lowest (an axis spanning more cells, a
   // stray particle 16 million spacings away, has its cells merged in runs: larger patches there).
   const auto cell_of = [&](std::size_t t) {
@@ -619,16 +664,32 @@ Owned simplify_pass(Shared& s, const Owned& current, double side, double offset,
   std::vector<std::size_t> collapses(patches), flips(patches);
   for_each_index(patches, [&](std::size_t p) {
     Owned triangles;
-    std::vector<uint32_t> global;
+    const std::size_t count = starts[p + 1] - starts[p];
+    triangles.triangles.reserve(count);
+    triangles.head.reserve(count);
+    // The patch's vertices, numbered in the mesh's order: each corner finds its vertex's first
+    // number through an open-addressing table (at most a quarter full), then the numbers are
+    // ranked.
+    const int bits = int(std::bit_width(4 * count - 1));
+    std::vector<std::pair<uint32_t, uint32_t>> table(std::size_t(1) << bits, {kNone, 0});
+    std::vector<std::pair<uint32_t, uint32_t>> seen;  // a vertex, its first number
     for (std::size_t i = starts[p]; i < starts[p + 1]; ++i) {
-      triangles.triangles.push_back(tris[cells[i].second]);
+      Triangle t = tris[cells[i].second];
+      for (uint32_t& v : t) {
+        std::size_t slot = (v * 0x9E3779B1u) >> (32 - bits);
+        while (table[slot].first != kNone && table[slot].first != v) slot = (slot + 1) & (table.size() - 1);
+        if (table[slot].first == kNone)
+          table[slot] = {v, uint32_t(seen.size())}, seen.push_back({v, uint32_t(seen.size())});
+        v = table[slot].second;
+      }
+      triangles.triangles.push_back(t);
       triangles.head.push_back(current.head[cells[i].second]);
-      for (uint32_t v : triangles.triangles.back()) global.push_back(v);
     }
-    std::sort(global.begin(), global.end());
-    global.erase(std::unique(global.begin(), global.end()), global.end());
+    std::sort(seen.begin(), seen.end());
+    std::vector<uint32_t> global(seen.size()), rank(seen.size());
+    for (uint32_t k = 0; k < seen.size(); ++k) global[k] = seen[k].first, rank[seen[k].second] = k;
     for (Triangle& t : triangles.triangles)
-      for (uint32_t& v : t) v = uint32_t(std::lower_bound(global.begin(), global.end(), v) - global.begin());
+      for (uint32_t& v : t) v = rank[v];
     PatchSimplifier patch(s, std::move(global), std::move(triangles), incident);
     patch.run();
     patch.emit(results[p]);

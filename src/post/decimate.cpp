@@ -778,14 +778,13 @@ DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell) {
     if (double(current.triangles.size()) > 0.98 * double(before)) break;
   }
   // The largest distance of a point from the triangle that holds it.
-  for (std::size_t t = 0; t < current.triangles.size(); ++t) {
+  std::vector<float> farthest(current.triangles.size(), 0);
+  for_each_index(farthest.size(), 1024, [&](std::size_t t) {
     const Triangle& c = current.triangles[t];
-    for (uint32_t p = current.head[t]; p != kNone; p = s.next[p]) {
-      const Vec3f q = s.point(p);
-      outcome.max_error =
-          std::max(outcome.max_error, double(std::sqrt(distance2(q, s.pos[c[0]], s.pos[c[1]], s.pos[c[2]], 0))));
-    }
-  }
+    for (uint32_t p = current.head[t]; p != kNone; p = s.next[p])
+      farthest[t] = std::max(farthest[t], distance2(s.point(p), s.pos[c[0]], s.pos[c[1]], s.pos[c[2]], 0));
+  });
+  if (!farthest.empty()) outcome.max_error = std::sqrt(double(*std::max_element(farthest.begin(), farthest.end())));
   mesh.triangles.swap(current.triangles);
   mesh.vertices = std::move(s.pos);
   drop_unused_vertices(mesh);

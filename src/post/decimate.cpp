@@ -16,7 +16,6 @@
 #include "common/for_each.hpp"
 #include "mesh/closest_point_impl.hpp"
 #include "mesh/compact.hpp"
-#include "mesh/directed_edges.hpp"
 #include "mesh/normals.hpp"
 
 namespace meniscus {
@@ -40,7 +39,8 @@ constexpr int kRounds = 3;
 /// reach of it; an operation hands the points of the triangles it changes to the triangles it
 /// leaves (the one that held a point, where it is still there, else the first within reach), or is
 /// refused. Each entry is written only by the patch that holds the triangle or the
-/// vertex (one patch each), so the patches run in parallel without locks.
+/// vertex (one patch each), so the patches run in parallel without locks; only a seam vertex's
+/// `settled`, which two patches may clear at once, is written through atomic_ref.
 struct Shared {
   const std::vector<Vec3f>& x;  ///< the input's vertices
   std::vector<Vec3f> pos;       ///< the vertices where they are now (a collapse may move one)
@@ -48,7 +48,6 @@ struct Shared {
   std::vector<Attribute>& attributes;
   std::vector<Vec3f> points;           ///< the input's triangles' centroids, then its edges' midpoints
   std::vector<uint32_t> next;          ///< the next point of the same triangle
-  std::vector<uint8_t> locked;         ///< on a border or a non-manifold edge of the input
   std::vector<uint8_t> floor_valence;  ///< the least valence a vertex may fall to
   std::vector<Vec3f> normal;           ///< the input's vertex normals (unit, area-weighted)
   /// Vertices none of whose collapses passed since their triangles last changed: tried again only
@@ -194,9 +193,11 @@ class PatchSimplifier {
       for (uint32_t v : tris_[t]) fan_.push(v, t);
     interior_.resize(n);
     stamp_.assign(n, 0);
+    // Interior: all of v's triangles are here and form one closed disk. A vertex on a border (a
+    // clip's cut), on an edge used twice in a direction or where two fans touch never is, and as
+    // only interior vertices' triangles change, it keeps its fan, and stays, through every pass.
     for (uint32_t v = 0; v < n; ++v)
-      interior_[v] =
-          !s_.locked[global_[v]] && !fan_.overflows(v) && fan_.size(v) == incident[global_[v]] && single_fan(v);
+      interior_[v] = !fan_.overflows(v) && fan_.size(v) == incident[global_[v]] && single_fan(v);
   }
 
   std::size_t collapses = 0, flips = 0;
@@ -616,8 +617,9 @@ class PatchSimplifier {
 };
 
 /// One pass: `current` cut into patches by a grid of side `side` shifted by `offset`, each
-/// simplified on its own, in parallel.
-Owned simplify_pass(Shared& s, const Owned& current, double side, double offset, DecimateOutcome& outcome) {
+/// simplified on its own, in parallel. `current` and the pass's own arrays are let go before the
+/// patches' results are joined, so the pass holds at most about two copies of the mesh.
+Owned simplify_pass(Shared& s, Owned current, double side, double offset, DecimateOutcome& outcome) {
   const std::vector<Vec3f>& x = s.x;
   const std::vector<Triangle>& tris = current.triangles;
   std::vector<uint32_t> incident(x.size(), 0);
@@ -696,10 +698,18 @@ Owned simplify_pass(Shared& s, const Owned& current, double side, double offset,
     collapses[p] = patch.collapses;
     flips[p] = patch.flips;
   });
+  current = {};
+  cells = {};
+  incident = {};
   Owned out;
+  std::size_t total = 0;
+  for (const Owned& r : results) total += r.triangles.size();
+  out.triangles.reserve(total);
+  out.head.reserve(total);
   for (std::size_t p = 0; p < patches; ++p) {
     out.triangles.insert(out.triangles.end(), results[p].triangles.begin(), results[p].triangles.end());
     out.head.insert(out.head.end(), results[p].head.begin(), results[p].head.end());
+    results[p] = {};
     outcome.collapses += collapses[p];
     outcome.flips += flips[p];
   }
@@ -721,20 +731,9 @@ DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell) {
            {},
            {},
            std::vector<uint8_t>(nv, 0),
-           std::vector<uint8_t>(nv, 0),
            {},
            std::vector<uint8_t>(nv, 0),
            float(kMargin * kMargin * bound * bound)};
-  // Borders and edges used more than once in a direction: their vertices stay.
-  {
-    const std::vector<EdgeKey> edges = sorted_directed_edges(mesh.triangles);
-    std::vector<uint8_t> odd(edges.size(), 0);
-    for_each_index(edges.size(), 4096, [&](std::size_t i) {
-      odd[i] = (i + 1 < edges.size() && edges[i + 1] == edges[i]) || !contains(edges, reversed(edges[i]));
-    });
-    for (std::size_t i = 0; i < edges.size(); ++i)
-      if (odd[i]) s.locked[edge_from(edges[i])] = s.locked[edge_to(edges[i])] = 1;
-  }
   Owned current{{}, std::vector<uint32_t>(nt, kNone)};
   {
     const std::vector<Triangle>& tris = mesh.triangles;
@@ -773,7 +772,7 @@ DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell) {
   for (int pass = 0; pass < kDecimatePasses; ++pass) {
     const std::size_t before = current.triangles.size();
     const double offset = std::fmod(pass * 0.6180339887498949, 1.0) * cell;
-    current = simplify_pass(s, current, cell, offset, outcome);
+    current = simplify_pass(s, std::move(current), cell, offset, outcome);
     ++outcome.rounds;
     if (double(current.triangles.size()) > 0.98 * double(before)) break;
   }
@@ -782,7 +781,7 @@ DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell) {
   for_each_index(farthest.size(), 1024, [&](std::size_t t) {
     const Triangle& c = current.triangles[t];
     for (uint32_t p = current.head[t]; p != kNone; p = s.next[p])
-      farthest[t] = std::max(farthest[t], distance2(s.point(p), s.pos[c[0]], s.pos[c[1]], s.pos[c[2]], 0));
+      farthest[t] = std::max(farthest[t], distance2(s.point(p), s.pos[c[0]], s.pos[c[1]], s.pos[c[2]], s.reach2));
   });
   if (!farthest.empty()) outcome.max_error = std::sqrt(double(*std::max_element(farthest.begin(), farthest.end())));
   mesh.triangles.swap(current.triangles);

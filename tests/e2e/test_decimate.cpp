@@ -5,7 +5,7 @@
 // manifold, no component collapsed, no vertex under valence 5, no more angles under 10° than the
 // full mesh has, a vertex either the full mesh's (with its normal and attributes) or moved by
 // collapses that met halfway (its normal and attributes like those of the full mesh's vertices
-// around it), a clip's cut kept as it is.
+// around it), a clip's cut and a non-manifold spot kept as they are.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -323,6 +323,72 @@ TEST(Decimate, CappedClipStaysClosedWithinTheBound) {
   const float cell = float(0.25 * d);
   EXPECT_LE(std::max(farthest(capped.mesh, simple.mesh, cell, 50000), farthest(simple.mesh, capped.mesh, cell, 50000)),
             0.02 * d);
+}
+
+// Where two surfaces touch at a vertex, or share an edge, the spot stays as it is: such a vertex's
+// fan is no closed disk, so no collapse or flip reaches its triangles, pass after pass, while the
+// surfaces around it are simplified.
+TEST(Decimate, KeepsNonManifoldSpotsAsTheyAre) {
+  const TriangleMesh sphere = test::icosphere(4);  // 5120 triangles, edges about 0.06 long
+  const auto farthest_x = [&](auto&& among) {
+    uint32_t best = UINT32_MAX;
+    for (uint32_t v = 0; v < sphere.vertices.size(); ++v)
+      if (among(v) && (best == UINT32_MAX || sphere.vertices[v].x > sphere.vertices[best].x)) best = v;
+    return best;
+  };
+  const uint32_t p = farthest_x([](uint32_t) { return true; });
+  const uint32_t q = farthest_x([&](uint32_t v) {
+    return v != p && std::any_of(sphere.triangles.begin(), sphere.triangles.end(), [&](const Triangle& t) {
+             return std::count(t.begin(), t.end(), p) && std::count(t.begin(), t.end(), v);
+           });
+  });
+  // The sphere and its mirror image through the plane at `origin` across `normal`, the vertices
+  // `shared` (on that plane) merged.
+  const auto with_mirror = [&](Vec3f origin, Vec3f normal, std::vector<uint32_t> shared) {
+    TriangleMesh mesh = sphere;
+    const auto nv = uint32_t(sphere.vertices.size());
+    std::vector<uint32_t> image(nv);
+    for (uint32_t v = 0; v < nv; ++v) {
+      if (std::count(shared.begin(), shared.end(), v)) {
+        image[v] = v;
+        continue;
+      }
+      image[v] = uint32_t(mesh.vertices.size());
+      const Vec3f x = sphere.vertices[v], n = sphere.normals[v];
+      mesh.vertices.push_back(x - normal * (2 * dot(x - origin, normal)));
+      mesh.normals.push_back(n - normal * (2 * dot(n, normal)));
+    }
+    for (const Triangle& t : sphere.triangles) mesh.triangles.push_back({image[t[0]], image[t[2]], image[t[1]]});
+    return mesh;
+  };
+  const Vec3f xp = sphere.vertices[p], xq = sphere.vertices[q], along = normalized(xq - xp);
+  const Vec3f middle = (xp + xq) * 0.5f;
+  const TriangleMesh touching = with_mirror(xp, {1, 0, 0}, {p});
+  const TriangleMesh sharing = with_mirror(xp, normalized(middle - along * dot(middle, along)), {p, q});
+  for (const auto& [input, spot] : {std::pair{&touching, std::vector{xp}}, std::pair{&sharing, std::vector{xp, xq}}}) {
+    TriangleMesh mesh = *input;
+    const DecimateOutcome outcome = decimate(mesh, 0.05, 4);
+    EXPECT_LT(mesh.triangles.size(), input->triangles.size() / 4);
+    EXPECT_EQ(outcome.triangles_after, mesh.triangles.size());
+    const auto uses = [](const TriangleMesh& m, Vec3f at) {
+      std::size_t n = 0, found = 0;
+      for (uint32_t v = 0; v < m.vertices.size(); ++v)
+        if (m.vertices[v] == at) {
+          ++found;
+          for (const Triangle& t : m.triangles) n += std::size_t(std::count(t.begin(), t.end(), v));
+        }
+      EXPECT_EQ(found, 1u);
+      return n;
+    };
+    for (const Vec3f at : spot) EXPECT_EQ(uses(mesh, at), uses(*input, at));
+  }
+  // The shared edge is still there twice in each direction.
+  TriangleMesh mesh = sharing;
+  decimate(mesh, 0.05, 4);
+  std::size_t forward = 0;
+  for (const Triangle& t : mesh.triangles)
+    for (std::size_t k = 0; k < 3; ++k) forward += mesh.vertices[t[k]] == xp && mesh.vertices[t[(k + 1) % 3]] == xq;
+  EXPECT_EQ(forward, 2u);
 }
 
 TEST(Decimate, ZeroChangesNothingAndBadValuesAreRefused) {

@@ -193,8 +193,6 @@ class PatchSimplifier {
       for (uint32_t v : tris_[t]) fan_.push(v, t);
     interior_.resize(n);
     stamp_.assign(n, 0);
-    waiting_.assign(n, 0);
-    stale_.assign(n, 0);
     // Interior: all of v's triangles are here and form one closed disk. A vertex on a border (a
     // clip's cut), on an edge used twice in a direction or where two fans touch never is, and as
     // only interior vertices' triangles change, it keeps its fan, and stays, through every pass.
@@ -478,17 +476,9 @@ class PatchSimplifier {
   }
 
   void collapse_all() {
-    // A vertex whose triangles change while it waits keeps its place and is priced again when it
-    // comes up: where it costs more than the next one by then, it waits again (lazy updates:
-    // against pricing it again at every change, 5-10 % less time on the SPHysics tank and the
-    // double dam break, the counts within 0.5 %).
     std::priority_queue<Candidate> heap;
-    const auto push = [&](uint32_t u, double price) {
-      heap.push({price, u, ++stamp_[u]});
-      waiting_[u] = 1, stale_[u] = 0;
-    };
     for (uint32_t u = 0; u < global_.size(); ++u)
-      if (interior_[u] && !s_.settled[global_[u]]) push(u, cost(u));
+      if (interior_[u] && !s_.settled[global_[u]]) heap.push({cost(u), u, stamp_[u]});
     std::vector<std::pair<double, uint32_t>> targets;
     std::vector<uint32_t> touched;
     while (!heap.empty()) {
@@ -496,14 +486,6 @@ class PatchSimplifier {
       heap.pop();
       const uint32_t u = c.u;
       if (!interior_[u] || c.stamp != stamp_[u]) continue;
-      if (stale_[u]) {
-        const double now = cost(u);
-        if (!heap.empty() && now > heap.top().cost) {
-          push(u, now);
-          continue;
-        }
-      }
-      waiting_[u] = 0;
       ring(u, scratch_);
       // The neighbours whose collapse passes the valence checks (the cheap part of
       // can_collapse), by cost.
@@ -545,11 +527,7 @@ class PatchSimplifier {
         for (uint32_t w : touched) {
           // v's ring can hold a vertex on the seam, which a patch beside may clear at once.
           std::atomic_ref<uint8_t>(s_.settled[global_[w]]).store(0, std::memory_order_relaxed);
-          if (!interior_[w]) continue;
-          if (waiting_[w])
-            stale_[w] = 1;
-          else
-            push(w, cost(w));
+          if (interior_[w]) heap.push({cost(w), w, ++stamp_[w]});
         }
         break;
       }
@@ -624,8 +602,7 @@ class PatchSimplifier {
   std::vector<uint32_t> point_id_, next_;
   std::vector<uint8_t> alive_, interior_;
   Fans fan_;
-  std::vector<uint32_t> stamp_;           ///< a vertex's latest place in the heap
-  std::vector<uint8_t> waiting_, stale_;  ///< in the heap; its triangles changed since it was priced
+  std::vector<uint32_t> stamp_;
   std::vector<uint32_t> ring_u_, ring_v_, scratch_, moving_, assign_, pair_;
   std::vector<std::pair<uint32_t, Triangle>> to_;
   /// to_'s triangles prepared (the first prepared_ of them): at most a fan of 9 (or the input's

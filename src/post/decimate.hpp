@@ -22,7 +22,7 @@
 //     none turns more than 45° from the triangle it replaces or 60° from the input's normals at
 //     its corners (so no fold).
 // meshoptimizer (Debian's 0.18) was the engine before: it has no control of valence or angles, and
-// its collapses had to be checked by sampling, 7-10 times slower than this on the bundled frames.
+// its collapses had to be checked by sampling, 8-13 times slower than this on the bundled frames.
 // The mesh is cut into patches, the cells of a grid anchored at the origin (8 d wide in the
 // pipeline: about 2,000 triangles of flat water), simplified in parallel with their seams kept (a
 // vertex changes only where all its triangles are in the patch); up to 3 passes over grids

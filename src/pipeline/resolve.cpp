@@ -277,7 +277,7 @@ double local_reach(const Params& p) {
   projection += kDrift * d;
   const int rings = smoothing_rings(smooth_schedule(p)) + (p.erode > 0 ? 1 : 0);
   // The simplification reads the finished mesh around a triangle (post/decimate.hpp).
-  const double simplified = p.decimate > 0 ? decimate_reach(kDecimateCell * d) : 0;
+  const double simplified = p.decimate > 0 ? decimate_reach(decimate_cell_spacings(p.decimate) * d) : 0;
   return rings * edge + std::max(field, projection) + simplified;
 }
 

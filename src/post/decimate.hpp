@@ -24,8 +24,8 @@
 // meshoptimizer (Debian's 0.18) was the engine before: it has no control of valence or angles, and
 // its collapses had to be checked by sampling, 8-13 times slower than this on the bundled frames.
 // The mesh is cut into patches, the cells of a grid anchored at the origin (8 d wide in the
-// pipeline: about 2,000 triangles of flat water), simplified in parallel with their seams kept (a
-// vertex changes only where all its triangles are in the patch); up to 3 passes over grids
+// pipeline up to E = 0.02, about 2,000 triangles of flat water, wider above: stage_plan.hpp), simplified in parallel
+// with their seams kept (a vertex changes only where all its triangles are in the patch); up to 3 passes over grids
 // shifted by the golden ratio's fraction of a cell let the seams go too. A vertex none of whose
 // collapses passes is tried again only once its triangles change. The result does not depend on the number
 // of threads.

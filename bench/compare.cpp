@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -40,25 +39,10 @@ struct Column {
   double distance_to_full = -1;  ///< the decimated column: the largest distance to the full mesh / d
 };
 
-/// `count` points on the triangles of `mesh`, area-weighted, deterministic.
+/// The vertices of `mesh` and `count` random points on its triangles.
 std::vector<Vec3f> points_on(const TriangleMesh& mesh, std::size_t count) {
-  std::vector<double> area(mesh.triangles.size());
-  for (std::size_t t = 0; t < area.size(); ++t) {
-    const Triangle& c = mesh.triangles[t];
-    area[t] =
-        double(length(cross(mesh.vertices[c[1]] - mesh.vertices[c[0]], mesh.vertices[c[2]] - mesh.vertices[c[0]])));
-  }
-  std::mt19937 rng(1);
-  std::discrete_distribution<std::size_t> pick(area.begin(), area.end());
-  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-  std::vector<Vec3f> points = mesh.vertices;
-  for (std::size_t i = 0; i < count && !area.empty(); ++i) {
-    const Triangle& c = mesh.triangles[pick(rng)];
-    float u = unit(rng), v = unit(rng);
-    if (u + v > 1) u = 1 - u, v = 1 - v;
-    const Vec3f a = mesh.vertices[c[0]];
-    points.push_back(a + (mesh.vertices[c[1]] - a) * u + (mesh.vertices[c[2]] - a) * v);
-  }
+  std::vector<Vec3f> points = mesh.vertices, random = random_surface_points(mesh, count, 1);
+  points.insert(points.end(), random.begin(), random.end());
   return points;
 }
 

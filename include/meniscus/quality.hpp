@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -85,6 +86,12 @@ struct SurfaceDistanceReport {
 /// surface gives count 0 and zeros. Parallel over the points.
 SurfaceDistanceReport distance_to_surface(std::span<const Vec3f> points, const TriangleMesh& surface,
                                           double cap = INFINITY);
+
+/// `count` points on the triangles of `mesh`, each triangle picked with a chance in proportion to
+/// its area and the point uniform on it, from a generator seeded with `seed` (the same mesh and
+/// seed give the same points): with the vertices, what the distance between two surfaces is
+/// measured on (bench/compare.cpp, tests/e2e/test_decimate.cpp).
+std::vector<Vec3f> random_surface_points(const TriangleMesh& mesh, std::size_t count, uint32_t seed);
 
 /// The flicker's search distance in particle spacings: a vertex farther than this from the
 /// previous frame's surface is not flicker (a fraction of d) but a cut, an emitter or a frame

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <random>
 #include <stdexcept>
 
 #include "common/for_each.hpp"
@@ -55,6 +56,29 @@ bool triangles_near(const TriangleMesh& surface, const Box& box, std::vector<Tri
 }
 
 }  // namespace
+
+std::vector<Vec3f> random_surface_points(const TriangleMesh& mesh, std::size_t count, uint32_t seed) {
+  std::vector<Vec3f> points;
+  if (mesh.triangles.empty()) return points;
+  std::vector<double> area(mesh.triangles.size());
+  for (std::size_t t = 0; t < area.size(); ++t) {
+    const Triangle& c = mesh.triangles[t];
+    area[t] =
+        double(length(cross(mesh.vertices[c[1]] - mesh.vertices[c[0]], mesh.vertices[c[2]] - mesh.vertices[c[0]])));
+  }
+  std::mt19937 rng(seed);
+  std::discrete_distribution<std::size_t> pick(area.begin(), area.end());
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  points.reserve(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    const Triangle& c = mesh.triangles[pick(rng)];
+    float u = unit(rng), v = unit(rng);
+    if (u + v > 1) u = 1 - u, v = 1 - v;  // the parallelogram's far half folded onto the triangle
+    const Vec3f a = mesh.vertices[c[0]];
+    points.push_back(a + (mesh.vertices[c[1]] - a) * u + (mesh.vertices[c[2]] - a) * v);
+  }
+  return points;
+}
 
 SurfaceDistanceReport distance_to_surface(std::span<const Vec3f> points, const TriangleMesh& surface, double cap) {
   SurfaceDistanceReport report;

@@ -12,7 +12,6 @@
 #include <array>
 #include <cmath>
 #include <map>
-#include <random>
 #include <set>
 #include <string_view>
 #include <unordered_map>
@@ -78,21 +77,7 @@ double farthest(const TriangleMesh& from, const TriangleMesh& to, float cell, st
   const TriangleGrid grid(to, cell);
   double worst = 0;
   for (const Vec3f x : from.vertices) worst = std::max(worst, grid.distance(x));
-  std::vector<double> area(from.triangles.size());
-  for (std::size_t t = 0; t < area.size(); ++t) {
-    const Triangle& tri = from.triangles[t];
-    area[t] = double(length(cross(from.vertices[tri[1]] - from.vertices[tri[0]], from.vertices[tri[2]] - from.vertices[tri[0]])));
-  }
-  std::mt19937 rng(7);
-  std::discrete_distribution<std::size_t> pick(area.begin(), area.end());
-  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-  for (std::size_t s = 0; s < samples; ++s) {
-    const Triangle& tri = from.triangles[pick(rng)];
-    float u = unit(rng), v = unit(rng);
-    if (u + v > 1) u = 1 - u, v = 1 - v;
-    const Vec3f a = from.vertices[tri[0]];
-    worst = std::max(worst, grid.distance(a + (from.vertices[tri[1]] - a) * u + (from.vertices[tri[2]] - a) * v));
-  }
+  for (const Vec3f x : random_surface_points(from, samples, 7)) worst = std::max(worst, grid.distance(x));
   return worst;
 }
 

@@ -236,16 +236,24 @@ class PatchSimplifier {
   }
   static bool has(const Triangle& t, uint32_t v) { return t[0] == v || t[1] == v || t[2] == v; }
 
-  /// The corners after v in each of its triangles form one cycle (a closed disk around v).
-  bool single_fan(uint32_t v) const {
+  using Corners = std::array<uint32_t, Fans::kSlots>;
+
+  /// The corners of v's triangles after and before it: fan_[v][k] is (v, ahead[k], behind[k]).
+  void around(uint32_t v, Corners& ahead, Corners& behind) const {
     const std::span<const uint32_t> f = fan_[v];
-    if (f.size() < 3) return false;
-    std::array<uint32_t, Fans::kSlots> ahead, behind;  // triangle k is (v, ahead[k], behind[k])
     for (std::size_t k = 0; k < f.size(); ++k) {
       const Triangle& c = tris_[f[k]];
       const int i = c[0] == v ? 0 : (c[1] == v ? 1 : 2);
       ahead[k] = c[std::size_t((i + 1) % 3)], behind[k] = c[std::size_t((i + 2) % 3)];
     }
+  }
+
+  /// The corners after v in each of its triangles form one cycle (a closed disk around v).
+  bool single_fan(uint32_t v) const {
+    const std::span<const uint32_t> f = fan_[v];
+    if (f.size() < 3) return false;
+    Corners ahead, behind;
+    around(v, ahead, behind);
     std::size_t k = 0;
     for (std::size_t seen = 1;; ++seen) {
       // The next triangle's corner after v is this one's before v.
@@ -356,7 +364,8 @@ class PatchSimplifier {
   enum Verdict { kYes, kNever, kNotHere };
 
   /// Whether u can collapse into v, v staying where it is or (`middle`) moving halfway to u; if so,
-  /// from_, to_ and place_ say what collapse() does.
+  /// from_, to_ and place_ say what collapse() does. ring_u_ holds u's neighbours, all interior
+  /// (collapse_all tries no other u).
   Verdict can_collapse(uint32_t u, uint32_t v, bool middle) {
     if (!interior_[v]) return kNever;
     std::array<uint32_t, 2> shared{kNone, kNone};
@@ -370,9 +379,6 @@ class PatchSimplifier {
     const uint32_t a = third(tris_[shared[0]], u, v), b = third(tris_[shared[1]], u, v);
     if (a == b) return kNever;
     if (!valences_allow(u, v, a, b)) return kNever;
-    ring(u, ring_u_);
-    for (uint32_t w : ring_u_)
-      if (!interior_[w]) return kNever;
     ring(v, ring_v_);
     std::size_t common = 0;
     for (uint32_t w : ring_u_) common += std::find(ring_v_.begin(), ring_v_.end(), w) != ring_v_.end();
@@ -486,18 +492,19 @@ class PatchSimplifier {
       heap.pop();
       const uint32_t u = c.u;
       if (!interior_[u] || c.stamp != stamp_[u]) continue;
-      ring(u, scratch_);
+      const std::span<const uint32_t> fan = fan_[u];
+      Corners ahead, behind;
+      around(u, ahead, behind);
+      ring_u_.assign(ahead.begin(), ahead.begin() + std::ptrdiff_t(fan.size()));
+      // Settled only where the patch's seam did not stop it: a later pass tries it again. A vertex
+      // beside the seam cannot go in this pass whatever its target (the link condition needs its
+      // neighbours' fans whole).
+      const bool whole = std::all_of(ring_u_.begin(), ring_u_.end(), [&](uint32_t w) { return interior_[w]; });
+      s_.settled[global_[u]] = whole;
+      if (!whole) continue;
       // The neighbours whose collapse passes the valence checks (the cheap part of
       // can_collapse), by cost.
       targets.clear();
-      const std::span<const uint32_t> fan = fan_[u];
-      // Each triangle of u's fan, (u, ahead, behind).
-      std::array<uint32_t, Fans::kSlots> ahead, behind;
-      for (std::size_t k = 0; k < fan.size(); ++k) {
-        const Triangle& corners = tris_[fan[k]];
-        const int i = corners[0] == u ? 0 : (corners[1] == u ? 1 : 2);
-        ahead[k] = corners[std::size_t((i + 1) % 3)], behind[k] = corners[std::size_t((i + 2) % 3)];
-      }
       costs(u, [&](std::size_t k, uint32_t v, double price) {
         const uint32_t a = behind[k];  // fan[k] = (u, v, a); the other side (v, u, b)
         uint32_t b = kNone;
@@ -507,8 +514,6 @@ class PatchSimplifier {
         targets.push_back({price, v});
       });
       std::sort(targets.begin(), targets.end());
-      // Settled only where the patch's seam did not stop it: a later pass tries the others again.
-      s_.settled[global_[u]] = std::all_of(scratch_.begin(), scratch_.end(), [&](uint32_t w) { return interior_[w]; });
       // Into v where it is (the surface's own vertex); where a triangle or the bound refuses that
       // (the surface bends there), halfway, for the cheapest v the valences allow (for all of them:
       // 1-2 % fewer triangles, 5-10 % more time).
@@ -603,7 +608,7 @@ class PatchSimplifier {
   std::vector<uint8_t> alive_, interior_;
   Fans fan_;
   std::vector<uint32_t> stamp_;
-  std::vector<uint32_t> ring_u_, ring_v_, scratch_, moving_, assign_, pair_;
+  std::vector<uint32_t> ring_u_, ring_v_, moving_, assign_, pair_;
   std::vector<std::pair<uint32_t, Triangle>> to_;
   /// to_'s triangles prepared (the first prepared_ of them): at most a fan of 9 (or the input's
   /// valence, under 16 slots) and another beside it.

@@ -101,6 +101,18 @@ inline constexpr double kFlickerCapSpacings = 4;
 /// mesh's mean edge is about d/4 at the default voxel size d/2.
 inline constexpr double kFlickerCapEdges = 16;
 
+/// The fewest triangles any mesh within `bound` of `mesh` (both ways) can have, estimated from
+/// its curved parts: where the surface bends the same way in every direction (Gaussian
+/// curvature K > 0: droplets, crests), a plane stays within `bound` of it only over an area of
+/// about 3√3·bound/√K (in coordinates where the surface is z = (x² + y²)/2, a triangle within
+/// `bound` of it fits in a disk of radius 2√bound: at most 3√3·bound), so such a mesh needs at
+/// least ∫_{K>0} √K dA / (3√3·bound) triangles there, whatever its flat and saddle parts take. K
+/// is each vertex's angle defect over its share of area, both summed over its rings twice (a
+/// filter about half a spacing wide on a meniscus mesh: the estimate moves 3 % between one and
+/// four rings on the bundled frames); vertices on a border add nothing. A lower estimate for
+/// small bounds, what a simplification at that bound is measured against (bench/compare.cpp).
+double least_triangles_within(const TriangleMesh& mesh, double bound);
+
 /// Mean length of the triangles' edges (each side of each triangle once); 0 without triangles.
 double mean_edge_length(const TriangleMesh& mesh);
 

@@ -298,6 +298,44 @@ double mean_edge_length(const TriangleMesh& mesh) {
   return mesh.triangles.empty() ? 0.0 : sum / (3.0 * double(mesh.triangles.size()));
 }
 
+double least_triangles_within(const TriangleMesh& mesh, double bound) {
+  const std::size_t nv = mesh.vertices.size();
+  if (!(bound > 0) || mesh.triangles.empty()) return 0;
+  // Each vertex's angle sum and a third of its triangles' area; its neighbours by directed edge
+  // (each once on a closed mesh); a vertex on a border edge (one with no twin) is left out.
+  std::vector<double> angle(nv, 0), area(nv, 0);
+  std::vector<std::pair<uint32_t, uint32_t>> edges;
+  edges.reserve(3 * mesh.triangles.size());
+  for (const Triangle& t : mesh.triangles) {
+    const Vec3f p[3] = {mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]};
+    const double a = 0.5 * double(length(cross(p[1] - p[0], p[2] - p[0])));
+    for (std::size_t k = 0; k < 3; ++k) {
+      const Vec3f e = p[(k + 1) % 3] - p[k], f = p[(k + 2) % 3] - p[k];
+      const double l = std::sqrt(double(length2(e)) * double(length2(f)));
+      if (l > 0) angle[t[k]] += std::acos(std::clamp(double(dot(e, f)) / l, -1.0, 1.0));
+      area[t[k]] += a / 3;
+      edges.push_back({t[k], t[(k + 1) % 3]});
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  std::vector<uint8_t> border(nv, 0);
+  for (const auto& [u, v] : edges)
+    if (!std::binary_search(edges.begin(), edges.end(), std::pair{v, u})) border[u] = border[v] = 1;
+  std::vector<double> defect(nv, 0);
+  for (std::size_t v = 0; v < nv; ++v)
+    if (area[v] > 0 && !border[v]) defect[v] = 2 * std::numbers::pi - angle[v];
+  std::vector<double> d = defect, a = area;
+  for (int ring = 0; ring < 2; ++ring) {
+    std::vector<double> dn = d, an = a;
+    for (const auto& [u, v] : edges) dn[u] += d[v], an[u] += a[v];
+    d.swap(dn), a.swap(an);
+  }
+  double integral = 0;  // ∫_{K>0} √K dA
+  for (std::size_t v = 0; v < nv; ++v)
+    if (!border[v] && d[v] > 0 && a[v] > 0) integral += area[v] * std::sqrt(d[v] / a[v]);
+  return integral / (3 * std::sqrt(3.0) * bound);
+}
+
 std::size_t points_outside(const TriangleMesh& mesh, std::span<const Vec3f> points) {
   if (mesh.triangles.empty()) return points.size();
   const TriangleBvh bvh(mesh.vertices, mesh.triangles);

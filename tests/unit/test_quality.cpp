@@ -1,12 +1,17 @@
 // Tests of the mesh quality metrics on meshes built by hand.
 #include <gtest/gtest.h>
 
+#include <numbers>
 #include <random>
 
 #include "meniscus/quality.hpp"
+#include "support/test_support.hpp"
 
 namespace meniscus {
 namespace {
+
+using test::grid_mesh;
+using test::icosphere;
 
 // Unit cube, 12 triangles, outward facing.
 TriangleMesh cube() {
@@ -131,6 +136,50 @@ TEST(Quality, PointsOutsideByRayParity) {
   pts.push_back({1, 1, 1});  // on the face diagonals' plane projection: inside
   pts.push_back({0.5f, 1, 1});
   EXPECT_EQ(points_outside(m, pts), expected_outside);
+}
+
+// On a sphere of radius R, K = 1/R² everywhere: ∫ √K dA = 4πR, so 4πR / (3√3·bound) triangles.
+TEST(Quality, LeastTrianglesOnASphereFollowItsCurvature) {
+  for (float radius : {1.0f, 3.0f}) {
+    const TriangleMesh sphere = icosphere(6, radius);
+    for (double bound : {1e-3, 4e-3}) {
+      const double expected = 4 * std::numbers::pi * radius / (3 * std::sqrt(3.0) * bound);
+      EXPECT_NEAR(least_triangles_within(sphere, bound), expected, 0.01 * expected) << radius << " " << bound;
+    }
+  }
+  EXPECT_EQ(least_triangles_within(icosphere(6), 0), 0);
+}
+
+// A real mesh within the bound has at least as many triangles as the estimate, which is near it
+// for a good one: the icosphere of 320 triangles, grown until it lies as far outside the unit
+// sphere at its corners as inside it at its faces' centres, is within that distance of the
+// sphere both ways.
+TEST(Quality, LeastTrianglesIsALowerBoundAndNearlyMet) {
+  const TriangleMesh coarse = icosphere(2);
+  double nearest = 1;  // the faces' planes' least distance from the centre
+  for (const Triangle& t : coarse.triangles) {
+    const Vec3f a = coarse.vertices[t[0]], b = coarse.vertices[t[1]], c = coarse.vertices[t[2]];
+    nearest = std::min(nearest, double(std::fabs(dot(normalized(cross(b - a, c - a)), a))));
+  }
+  const double bound = 2 / (1 + nearest) - 1;  // grown by 1 + bound: corners and centres both off by it
+  const double least = least_triangles_within(icosphere(6), bound);
+  EXPECT_LE(least, double(coarse.triangles.size()));
+  EXPECT_GE(least, 0.8 * double(coarse.triangles.size()));
+}
+
+// Flat parts and borders add nothing; a saddle neither.
+TEST(Quality, LeastTrianglesIgnoresFlatSaddleAndBorder) {
+  EXPECT_EQ(least_triangles_within(grid_mesh(40, 40, [](uint32_t, uint32_t) { return 0.0f; }), 0.01), 0);
+  const TriangleMesh saddle = grid_mesh(40, 40, [](uint32_t x, uint32_t y) {
+    const float u = (float(x) - 19.5f) / 20, v = (float(y) - 19.5f) / 20;
+    return 4 * (u * u - v * v);
+  });
+  EXPECT_LT(least_triangles_within(saddle, 0.01), 1.0);
+  // A closed surface: each of the sphere's halves holds half of it.
+  const double whole = least_triangles_within(icosphere(5), 0.01);
+  TriangleMesh half = icosphere(5);
+  std::erase_if(half.triangles, [&](const Triangle& t) { return half.vertices[t[0]].z < 0; });
+  EXPECT_NEAR(least_triangles_within(half, 0.01), 0.5 * whole, 0.05 * whole);
 }
 
 }  // namespace

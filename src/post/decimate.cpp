@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "common/for_each.hpp"
+#include "field/eigen_sym3_impl.hpp"
 #include "mesh/closest_point_impl.hpp"
 #include "mesh/compact.hpp"
 #include "mesh/normals.hpp"
@@ -54,11 +55,12 @@ struct Shared {
   /// once they change (a later round after a flip, a later pass at a seam).
   std::vector<uint8_t> settled;
   float reach2 = 0;                    ///< (kMargin · bound)²
+  std::vector<Triangle> input;         ///< the input's triangles (centroid point nv + t is triangle t's)
 
   /// Point p: the input's vertex p, or points[p - vertices].
   Vec3f point(uint32_t p) const { return p < x.size() ? x[p] : points[p - x.size()]; }
 
-  /// Vertex v moved halfway to u, which it absorbed: its normal and (non-integer) attributes
+  /// Vertex v moved to meet u, which it absorbed: its normal and (non-integer) attributes
   /// become the two's mean.
   void merge(uint32_t u, uint32_t v) {
     if (v < normals.size() && u < normals.size()) normals[v] = normalized(normals[v] + normals[u]);
@@ -363,9 +365,9 @@ class PatchSimplifier {
   /// no with v there (a triangle or the bound), which v elsewhere might pass.
   enum Verdict { kYes, kNever, kNotHere };
 
-  /// Whether u can collapse into v, v staying where it is or (`middle`) moving halfway to u; if so,
-  /// from_, to_ and place_ say what collapse() does. ring_u_ holds u's neighbours, all interior
-  /// (collapse_all tries no other u).
+  /// Whether u can collapse into v, v staying where it is or (`middle`) moving to meet u
+  /// (balanced); if so, from_, to_ and place_ say what collapse() does. ring_u_ holds u's
+  /// neighbours, all interior (collapse_all tries no other u).
   Verdict can_collapse(uint32_t u, uint32_t v, bool middle) {
     if (!interior_[v]) return kNever;
     std::array<uint32_t, 2> shared{kNone, kNone};
@@ -384,7 +386,7 @@ class PatchSimplifier {
     for (uint32_t w : ring_u_) common += std::find(ring_v_.begin(), ring_v_.end(), w) != ring_v_.end();
     if (common != 2) return kNever;
     moved_ = v;
-    place_ = middle ? (at(u) + at(v)) * 0.5f : at(v);
+    place_ = middle ? balanced(u, v) : at(v);
     to_.clear();
     for (uint32_t t : fan_[u]) {
       if (t == shared[0] || t == shared[1]) continue;
@@ -411,8 +413,59 @@ class PatchSimplifier {
         if (middle) from_.push_back(t);  // v's triangles moved too: their points are checked again
       }
     if (!rehome(from_, to_)) return kNotHere;
+    if (middle && !near_input(place_)) return kNotHere;
     shared_ = shared;
     return kYes;
+  }
+
+  /// Where v goes when it moves to meet u: the point nearest, in the least-squares sense, to the
+  /// planes of both fans' triangles (Garland & Heckbert's placement, over the surface as it is
+  /// now), from the midpoint along the directions those planes pin down; the midpoint itself where
+  /// that point lies farther from it than half of uv. On a curved surface it sits off the chord,
+  /// on the surface's outer side, so the new triangles straddle the surface instead of cutting
+  /// under it (10-13 % fewer triangles at the same bound than the midpoint on the bundled frames).
+  Vec3f balanced(uint32_t u, uint32_t v) const {
+    const Vec3f mid = (at(u) + at(v)) * 0.5f;
+    double a[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}, r[3] = {0, 0, 0};
+    const auto add = [&](uint32_t t) {
+      const Triangle& c = tris_[t];
+      const Vec3f m = cross(at(c[1]) - at(c[0]), at(c[2]) - at(c[0]));
+      const double l = length(m);
+      if (!(l > 0)) return;
+      const double n[3] = {m[0], m[1], m[2]}, off = double(dot(m, at(c[0]) - mid)) / l;
+      for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) a[i][j] += n[i] * n[j] / l;
+        r[i] += n[i] * off;
+      }
+    };
+    for (uint32_t t : fan_[u]) add(t);
+    for (uint32_t t : fan_[v])
+      if (!has(tris_[t], u)) add(t);
+    // Along the eigenvectors the planes pin down (an eigenvalue over a thousandth of the largest);
+    // along the others (a flat surface, a crease) v stays at the midpoint.
+    const Eigen3<double> e = eigen_sym3(a);
+    Vec3f y{0, 0, 0};
+    for (int k = 0; k < 3; ++k) {
+      if (!(e.values[k] > 1e-3 * e.values[0])) continue;
+      const double* w = e.vectors[k];
+      const double along = (w[0] * r[0] + w[1] * r[1] + w[2] * r[2]) / e.values[k];
+      y += Vec3f{float(w[0] * along), float(w[1] * along), float(w[2] * along)};
+    }
+    if (!(length2(y) <= length2(at(u) - at(v)) * 0.25f)) return mid;
+    return mid + y;
+  }
+  /// Whether q lies within reach of one of the input triangles whose centroids the operation
+  /// hands on (rehome's moving_): a vertex placed off the input surface stays as near it as its
+  /// points are to the simplified one. The points alone would not see it leave.
+  bool near_input(Vec3f q) const {
+    const std::size_t nv = s_.x.size(), nt = s_.input.size();
+    for (uint32_t p : moving_) {
+      const uint32_t id = point_id_[p];
+      if (id < nv || id >= nv + nt) continue;
+      const Triangle& c = s_.input[id - nv];
+      if (distance2(q, s_.x[c[0]], s_.x[c[1]], s_.x[c[2]], s_.reach2) <= s_.reach2) return true;
+    }
+    return false;
   }
 
   void erase_from_fan(uint32_t v, uint32_t t) { fan_.erase(v, t); }
@@ -515,15 +568,15 @@ class PatchSimplifier {
       });
       std::sort(targets.begin(), targets.end());
       // Into v where it is (the surface's own vertex); where a triangle or the bound refuses that
-      // (the surface bends there), halfway, for the cheapest v the valences allow (for all of them:
-      // 1-2 % fewer triangles, 5-10 % more time).
-      bool halfway = true;
+      // (the surface bends there), v moves to meet u, for the cheapest v the valences allow (for
+      // all of them, to the midpoint: 1-2 % fewer triangles, 5-10 % more time).
+      bool may_move = true;  // only the first v refused where it is may move
       for (const auto& [ignored, v] : targets) {
         const Verdict there = can_collapse(u, v, false);
         if (there == kNever) continue;
         if (there == kNotHere) {
-          if (!halfway) continue;
-          halfway = false;
+          if (!may_move) continue;
+          may_move = false;
           if (can_collapse(u, v, true) != kYes) continue;
         }
         touched = ring_u_;
@@ -738,7 +791,8 @@ DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell) {
            std::vector<uint8_t>(nv, 0),
            {},
            std::vector<uint8_t>(nv, 0),
-           float(kMargin * kMargin * bound * bound)};
+           float(kMargin * kMargin * bound * bound),
+           {}};
   Owned current{{}, std::vector<uint32_t>(nt, kNone)};
   {
     const std::vector<Triangle>& tris = mesh.triangles;
@@ -773,6 +827,7 @@ DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell) {
         if (first[v] == t) hold(v);
     });
   }
+  s.input = mesh.triangles;
   current.triangles = std::move(mesh.triangles);  // the simplification's input from here on
   for (int pass = 0; pass < kDecimatePasses; ++pass) {
     const std::size_t before = current.triangles.size();

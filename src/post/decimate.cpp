@@ -414,7 +414,7 @@ class PatchSimplifier {
         if (middle) from_.push_back(t);  // v's triangles moved too: their points are checked again
       }
     if (!rehome(from_, to_)) return kNotHere;
-    if (middle && !(near_input(place_) && under_edges_held(v))) return kNotHere;
+    if (middle && !near_input(place_)) return kNotHere;
     shared_ = shared;
     return kYes;
   }
@@ -467,46 +467,6 @@ class PatchSimplifier {
       if (distance2(q, s_.x[c[0]], s_.x[c[1]], s_.x[c[2]], s_.reach2) <= s_.reach2) return true;
     }
     return false;
-  }
-
-  /// Whether, for each new edge from the moved vertex v, the input surface's point nearest the
-  /// edge's midpoint lies within reach of the new triangles: where v moves off the chord its
-  /// edges make ridges, under which the input surface can part from them between its points (on a
-  /// 200k wide splash 1.74 times the points' reach without this check, 1.45 with it, for 1-3 %
-  /// more triangles). The input surface there: the three input triangles, among those whose centroids
-  /// the operation hands on, with the centroids nearest the midpoint.
-  bool under_edges_held(uint32_t v) const {
-    const std::size_t nv = s_.x.size(), nt = s_.input.size();
-    for (const auto& entry : to_) {
-      const Triangle& c = entry.second;
-      if (!has(c, v)) continue;
-      // Each edge from v once: the one that leaves it in this triangle's order.
-      const uint32_t w = c[0] == v ? c[1] : (c[1] == v ? c[2] : c[0]);
-      const Vec3f m = (place_ + at(w)) * 0.5f;
-      std::array<std::pair<float, uint32_t>, 3> nearest;
-      nearest.fill({INFINITY, kNone});
-      for (uint32_t p : moving_) {
-        const uint32_t id = point_id_[p];
-        if (id < nv || id >= nv + nt) continue;
-        const float d2 = length2(point_[p] - m);
-        if (d2 < nearest[2].first) {
-          nearest[2] = {d2, id - uint32_t(nv)};
-          std::sort(nearest.begin(), nearest.end());
-        }
-      }
-      Vec3f q{};
-      float best = INFINITY;
-      for (const auto& [ignored, k] : nearest) {
-        if (k == kNone) continue;
-        const Triangle& f = s_.input[k];
-        const Vec3f y = closest_point_on_triangle(m, s_.x[f[0]], s_.x[f[1]], s_.x[f[2]]);
-        if (length2(y - m) < best) best = length2(y - m), q = y;
-      }
-      if (!(best < INFINITY)) continue;
-      const auto held = [&](const Target& g) { return g.within(q, s_.reach2); };
-      if (std::none_of(targets_.begin(), targets_.begin() + std::ptrdiff_t(to_.size()), held)) return false;
-    }
-    return true;
   }
 
   void erase_from_fan(uint32_t v, uint32_t t) { fan_.erase(v, t); }

@@ -12,7 +12,7 @@
 // which on a curved surface sits on its outer side, so the new triangles straddle the surface
 // rather than cut under it, and which must lie within 0.55 of the bound of the input surface.
 // Moving so keeps 18-20 % fewer triangles at the same bound than never moving v (to the midpoint:
-// 8-9 %), for 15-35 % more time (dam breaks 23 and 26, the bunny, the free particles).
+// 8-9 %), for 15-36 % more time (dam breaks 23 and 26, the bunny, the free particles).
 // Every operation is refused unless, after it:
 //   - every point of the input surface that keeps the bound (its vertices, edge midpoints and
 //     triangle centroids) lies within 0.55 of the bound of the triangle that holds it: an

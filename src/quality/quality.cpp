@@ -321,10 +321,9 @@ double least_triangles_within(const TriangleMesh& mesh, double bound) {
   std::vector<uint8_t> border(nv, 0);
   for (const auto& [u, v] : edges)
     if (!std::binary_search(edges.begin(), edges.end(), std::pair{v, u})) border[u] = border[v] = 1;
-  std::vector<double> defect(nv, 0);
+  std::vector<double> d(nv, 0), a = area;  // the angle defects and areas, summed over the rings
   for (std::size_t v = 0; v < nv; ++v)
-    if (area[v] > 0 && !border[v]) defect[v] = 2 * std::numbers::pi - angle[v];
-  std::vector<double> d = defect, a = area;
+    if (area[v] > 0 && !border[v]) d[v] = 2 * std::numbers::pi - angle[v];
   for (int ring = 0; ring < 2; ++ring) {
     std::vector<double> dn = d, an = a;
     for (const auto& [u, v] : edges) dn[u] += d[v], an[u] += a[v];

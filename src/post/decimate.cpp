@@ -244,11 +244,7 @@ class PatchSimplifier {
   /// The corners of v's triangles after and before it: fan_[v][k] is (v, ahead[k], behind[k]).
   void around(uint32_t v, Corners& ahead, Corners& behind) const {
     const std::span<const uint32_t> f = fan_[v];
-    for (std::size_t k = 0; k < f.size(); ++k) {
-      const Triangle& c = tris_[f[k]];
-      const int i = c[0] == v ? 0 : (c[1] == v ? 1 : 2);
-      ahead[k] = c[std::size_t((i + 1) % 3)], behind[k] = c[std::size_t((i + 2) % 3)];
-    }
+    for (std::size_t k = 0; k < f.size(); ++k) ahead[k] = after(v, f[k]), behind[k] = after(ahead[k], f[k]);
   }
 
   /// The corners after v in each of its triangles form one cycle (a closed disk around v).
@@ -271,6 +267,12 @@ class PatchSimplifier {
       if (seen > f.size()) return false;
       k = next;
     }
+  }
+
+  /// Triangle t's normal where its corners are now, twice its area long.
+  Vec3f plane(uint32_t t) const {
+    const Triangle& c = tris_[t];
+    return cross(at(c[1]) - at(c[0]), at(c[2]) - at(c[0]));
   }
 
   /// The corner after v in triangle t.
@@ -430,7 +432,7 @@ class PatchSimplifier {
     double a[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}, r[3] = {0, 0, 0};
     const auto add = [&](uint32_t t) {
       const Triangle& c = tris_[t];
-      const Vec3f m = cross(at(c[1]) - at(c[0]), at(c[2]) - at(c[0]));
+      const Vec3f m = plane(t);
       const double l = length(m);
       if (!(l > 0)) return;
       const double n[3] = {m[0], m[1], m[2]}, off = double(dot(m, at(c[0]) - mid)) / l;
@@ -513,8 +515,7 @@ class PatchSimplifier {
     double q[6] = {0, 0, 0, 0, 0, 0};  // xx, xy, xz, yy, yz, zz
     const Vec3f xu = at(u);
     for (uint32_t t : fan) {
-      const Triangle& c = tris_[t];
-      const Vec3f m = cross(at(c[1]) - at(c[0]), at(c[2]) - at(c[0]));
+      const Vec3f m = plane(t);
       const double l = length(m);
       if (!(l > 0)) continue;
       const double x = m[0], y = m[1], z = m[2], w = 1 / l;

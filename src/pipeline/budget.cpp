@@ -30,7 +30,7 @@ double resident_bytes() {
 /// the 90 % default share of the grant the margin.
 constexpr double kRunBytesPerBandBlock = 24e3;
 /// What the simplification adds a block where it runs (--decimate): the points, normals, the
-/// finished mesh's triangles and the patches it keeps over the finished mesh. Measured 19-29 KB a
+/// finished mesh's triangles and the patches it keeps over the finished mesh. Measured 16-25 KB a
 /// block (the dam break 23, the SPHysics tank at E = 0.02).
 constexpr double kDecimateBytesPerBandBlock = 32e3;
 

@@ -48,7 +48,7 @@ struct Shared {
   std::vector<Vec3f> pos;       ///< the vertices where they are now (a collapse may move one)
   std::vector<Vec3f>& normals;  ///< the mesh's, with its attributes: a moved vertex takes the mean
   std::vector<Attribute>& attributes;
-  std::vector<Vec3f> points;           ///< the input's triangles' centroids, then its edges' midpoints
+  std::vector<Vec3f> midpoints;        ///< the input's edges' midpoints
   std::vector<uint32_t> next;          ///< the next point of the same triangle
   std::vector<uint8_t> floor_valence;  ///< the least valence a vertex may fall to
   std::vector<Vec3f> normal;           ///< the input's vertex normals (unit, area-weighted)
@@ -58,8 +58,14 @@ struct Shared {
   float reach2 = 0;                    ///< (kMargin · bound)²
   std::vector<Triangle> input;         ///< the input's triangles (centroid point nv + t is triangle t's)
 
-  /// Point p: the input's vertex p, or points[p - vertices].
-  Vec3f point(uint32_t p) const { return p < x.size() ? x[p] : points[p - x.size()]; }
+  /// Point p: the input's vertex p (p < nv), triangle p - nv's centroid (p < nv + nt), or
+  /// midpoints[p - nv - nt].
+  Vec3f point(uint32_t p) const {
+    if (p < x.size()) return x[p];
+    if (p < x.size() + input.size()) return centroid(input[p - x.size()]);
+    return midpoints[p - x.size() - input.size()];
+  }
+  Vec3f centroid(const Triangle& c) const { return (x[c[0]] + x[c[1]] + x[c[2]]) * (1.0f / 3); }
 
   /// Vertex v moved to meet u, which it absorbed: its normal and (non-integer) attributes
   /// become the two's mean.
@@ -130,7 +136,7 @@ float smallest_angle_cos(Vec3f a, Vec3f b, Vec3f c) {
   return std::max({corner(a, b, c), corner(b, c, a), corner(c, a, b)});
 }
 
-/// A mesh's triangles with the heads of their lists of points (Shared::points).
+/// A mesh's triangles with the heads of their lists of points (Shared::point).
 struct Owned {
   std::vector<Triangle> triangles;
   std::vector<uint32_t> head;
@@ -807,10 +813,11 @@ DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell) {
       mids[t + 1] = mids[t] + uint32_t(c[0] < c[1]) + uint32_t(c[1] < c[2]) + uint32_t(c[2] < c[0]);
     }
     for (std::size_t v = 0; v < nv; ++v) s.floor_valence[v] = uint8_t(std::min<uint32_t>(kMinValence, count[v]));
-    // The points: the vertices (each held by its first triangle), the triangles' centroids and
-    // the edges' midpoints (each held by the triangle where the edge runs from the lower index).
-    s.points.resize(nt + mids[nt]);
-    s.next.assign(nv + s.points.size(), kNone);
+    // The points: the vertices (each held by its first triangle), the triangles' centroids
+    // (computed from the input's triangles, kept for near_input anyway) and the edges' midpoints
+    // (each held by the triangle where the edge runs from the lower index).
+    s.midpoints.resize(mids[nt]);
+    s.next.assign(nv + nt + s.midpoints.size(), kNone);
     for_each_index(nt, 4096, [&](std::size_t t) {
       const Triangle& c = tris[t];
       uint32_t& head = current.head[t];
@@ -818,12 +825,11 @@ DecimateOutcome decimate(TriangleMesh& mesh, double bound, double cell) {
         s.next[p] = head;
         head = uint32_t(p);
       };
-      s.points[t] = (x[c[0]] + x[c[1]] + x[c[2]]) * (1.0f / 3);
       hold(nv + t);
-      std::size_t mid = nt + mids[t];
+      std::size_t mid = mids[t];
       for (int k = 0; k < 3; ++k) {
         const uint32_t from = c[std::size_t(k)], to = c[std::size_t((k + 1) % 3)];
-        if (from < to) s.points[mid] = (x[from] + x[to]) * 0.5f, hold(nv + mid++);
+        if (from < to) s.midpoints[mid] = (x[from] + x[to]) * 0.5f, hold(nv + nt + mid++);
       }
       for (uint32_t v : c)
         if (first[v] == t) hold(v);

@@ -695,7 +695,7 @@ Owned simplify_pass(Shared& s, Owned current, double side, double offset, Decima
   // Each triangle's cell, packed 21 bits an axis from the lowest (an axis spanning more cells, a
   // stray particle 16 million spacings away, has its cells merged in runs: larger patches there).
   const auto cell_of = [&](std::size_t t) {
-    const Vec3f c = (x[tris[t][0]] + x[tris[t][1]] + x[tris[t][2]]) * (1.0f / 3);
+    const Vec3f c = s.centroid(tris[t]);
     std::array<int64_t, 3> i;
     for (int a = 0; a < 3; ++a) i[std::size_t(a)] = int64_t(std::floor((double(c[a]) + offset) / side));
     return i;

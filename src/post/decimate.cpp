@@ -224,10 +224,10 @@ class PatchSimplifier {
   void emit(Owned& out) const {
     for (uint32_t v = 0; v < global_.size(); ++v)
       if (interior_[v]) s_.pos[global_[v]] = pos_[v];
+    const auto id = [&](uint32_t p) { return p == kNone ? kNone : point_id_[p]; };
     for (uint32_t t = 0; t < tris_.size(); ++t)
       if (alive_[t]) {
         out.triangles.push_back({global_[tris_[t][0]], global_[tris_[t][1]], global_[tris_[t][2]]});
-        const auto id = [&](uint32_t p) { return p == kNone ? kNone : point_id_[p]; };
         out.head.push_back(id(head_[t]));
         for (uint32_t p = head_[t]; p != kNone; p = next_[p]) s_.next[point_id_[p]] = id(next_[p]);
       }

@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import vtk
 
-from surface_distance import load
+from surface_distance import load, samples_on
 
 BINS = ((0, 1), (1, 2), (2, 4), (4, 8), (8, 180))
 
@@ -31,21 +31,12 @@ def turn_degrees(points, cells):
 
 
 def main():
-    reference, points, cells = load(sys.argv[1])
+    _, points, cells = load(sys.argv[1])
     other = load(sys.argv[2])[0]
     spacing = float(sys.argv[3])
     count = int(sys.argv[4]) if len(sys.argv) > 4 else 40000
     label = sys.argv[5] if len(sys.argv) > 5 else sys.argv[2]
-    rng = np.random.default_rng(1)
-    # Area-weighted points as surface_distance.samples draws them, keeping each one's triangle.
-    area = 0.5 * np.linalg.norm(np.cross(points[cells[:, 1]] - points[cells[:, 0]],
-                                         points[cells[:, 2]] - points[cells[:, 0]]), axis=1)
-    pick = rng.choice(len(cells), size=count, p=area / area.sum())
-    u, v = rng.random(count), rng.random(count)
-    flip = u + v > 1
-    u[flip], v[flip] = 1 - u[flip], 1 - v[flip]
-    a, b, c = (points[cells[pick, k]] for k in range(3))
-    where = a + u[:, None] * (b - a) + v[:, None] * (c - a)
+    where, pick = samples_on(points, cells, count, np.random.default_rng(1))
     locator = vtk.vtkStaticCellLocator()
     locator.SetDataSet(other)
     locator.BuildLocator()

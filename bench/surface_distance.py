@@ -23,14 +23,19 @@ def load(path):
     return mesh, points, cells
 
 
-def samples(points, cells, count, rng):
+def samples_on(points, cells, count, rng):
+    """Random points on the triangles, area-weighted, and the triangle each lies on."""
     a, b, c = points[cells[:, 0]], points[cells[:, 1]], points[cells[:, 2]]
     area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
     pick = rng.choice(len(cells), size=count, p=area / area.sum())
     u, v = rng.random(count), rng.random(count)
     flip = u + v > 1
     u[flip], v[flip] = 1 - u[flip], 1 - v[flip]
-    return a[pick] + u[:, None] * (b[pick] - a[pick]) + v[:, None] * (c[pick] - a[pick])
+    return a[pick] + u[:, None] * (b[pick] - a[pick]) + v[:, None] * (c[pick] - a[pick]), pick
+
+
+def samples(points, cells, count, rng):
+    return samples_on(points, cells, count, rng)[0]
 
 
 def farthest(points, target):

@@ -7,7 +7,7 @@
 # simplification before or during the sweeps, or an adaptive extraction, would have to beat.
 #   bash bench/resolution.sh [BUILD_DIR] [FRAME ...]   defaults: build/release, the dam break 23 and
 #                                                      the SPHysics dam break
-# Prints a markdown table (bench/RESULTS.md "Lean meshes").
+# Prints a markdown table (the lean meshes part of bench/RESULTS.md).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/build/release}

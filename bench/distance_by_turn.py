@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """How far another mesh lies from a reference mesh, by how flat the reference is there: random
 points on the reference's triangles (area-weighted), the distance from each to the other mesh (VTK's
-cell locator, exact point-triangle distances), in units of d, binned by how far the triangle's
+cell locator: surface_distance.distances), in units of d, binned by how far the triangle's
 normal turns from its corners' (area-weighted vertex normals): under 1° is flat. Prints one
 markdown row a bin: the share of the area, the median, 90th and 99th percentile.
 
@@ -10,9 +10,8 @@ markdown row a bin: the share of the area, the median, 90th and 99th percentile.
 import sys
 
 import numpy as np
-import vtk
 
-from surface_distance import load, samples_on
+from surface_distance import distances, load, samples_on
 
 BINS = ((0, 1), (1, 2), (2, 4), (4, 8), (8, 180))
 
@@ -37,14 +36,7 @@ def main():
     count = int(sys.argv[4]) if len(sys.argv) > 4 else 40000
     label = sys.argv[5] if len(sys.argv) > 5 else sys.argv[2]
     where, pick = samples_on(points, cells, count, np.random.default_rng(1))
-    locator = vtk.vtkStaticCellLocator()
-    locator.SetDataSet(other)
-    locator.BuildLocator()
-    closest, cell, sub, d2 = [0.0, 0.0, 0.0], vtk.reference(0), vtk.reference(0), vtk.reference(0.0)
-    distance = np.empty(count)
-    for i, p in enumerate(where):
-        locator.FindClosestPoint(p, closest, cell, sub, d2)
-        distance[i] = float(d2) ** 0.5 / spacing
+    distance = distances(where, other) / spacing
     turn = turn_degrees(points, cells)[pick]
     for lo, hi in BINS:
         inside = (turn >= lo) & (turn < hi)

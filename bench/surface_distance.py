@@ -38,16 +38,21 @@ def samples(points, cells, count, rng):
     return samples_on(points, cells, count, rng)[0]
 
 
-def farthest(points, target):
+def distances(points, target):
+    """The distance from each point to the mesh `target` (VTK's cell locator, exact)."""
     locator = vtk.vtkStaticCellLocator()
     locator.SetDataSet(target)
     locator.BuildLocator()
     closest, cell, sub, d2 = [0.0, 0.0, 0.0], vtk.reference(0), vtk.reference(0), vtk.reference(0.0)
-    worst = 0.0
-    for p in points:
+    out = np.empty(len(points))
+    for i, p in enumerate(points):
         locator.FindClosestPoint(p, closest, cell, sub, d2)
-        worst = max(worst, float(d2))
-    return worst ** 0.5
+        out[i] = float(d2)
+    return np.sqrt(out)
+
+
+def farthest(points, target):
+    return float(distances(points, target).max())
 
 
 def main():

@@ -137,6 +137,10 @@ extern "C" void remove_temporaries_and_end(int signal) {
 }  // namespace
 
 std::string follow_symlinks(const std::string& path) {
+  // A device, pipe or socket is written in place through the name given: the kernel resolves
+  // /dev/stdout and /proc/self/fd/N, whose link text ("pipe:[1234]") is no path.
+  struct stat resolved {};
+  if (::stat(path.c_str(), &resolved) == 0 && !S_ISREG(resolved.st_mode) && !S_ISDIR(resolved.st_mode)) return path;
   std::filesystem::path p(path);
   for (int hop = 0; hop < 40; ++hop) {
     struct stat info {};

@@ -69,7 +69,8 @@ class AtomicFile {
 
 /// `path` with the symlinks of its last component followed (relative links resolve against the
 /// link's folder), as far as they go: the file a write to `path` lands in, existing or not.
-/// Throws IoError for a loop of links.
+/// A path that resolves to a device, pipe or socket is returned as given (a /proc/self/fd link's
+/// text names no file). Throws IoError for a loop of links.
 std::string follow_symlinks(const std::string& path);
 
 /// Makes SIGINT, SIGTERM and SIGHUP remove every AtomicFile's temporary before the process ends

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <set>
 #include <thread>
@@ -187,6 +188,27 @@ TEST(Safety, DevicesAndPipesAreWrittenInPlace) {
   EXPECT_EQ(nlohmann::json::parse(r.output)["particles"], 6859) << r.output;
   EXPECT_EQ(fs::is_symlink("/dev/stdout"), link_before);
   EXPECT_TRUE(fs::exists("/dev/stdout"));
+
+  // Through a real pipe, as `--stats /dev/stdout | jq .` has it: /dev/stdout and /proc/self/fd/1
+  // then link to "pipe:[…]", which names no file; and a named pipe (FIFO) with its reader.
+  TempDir t;
+  for (const std::string stdout_name : {"/dev/stdout", "/proc/self/fd/1"}) {
+    const test::Measured piped = test::run_measured("{ " + test::cli() + " surface " + small_frame() + " -q -o " +
+                                                    q((t.path / "m.ply").string()) + " --stats " + stdout_name +
+                                                    "; echo \"@@status $?\"; } | cat");
+    const std::size_t at = piped.output.rfind("@@status ");
+    ASSERT_NE(at, std::string::npos) << piped.output;
+    EXPECT_EQ(piped.output.substr(at), "@@status 0\n") << stdout_name << "\n" << piped.output;
+    EXPECT_EQ(nlohmann::json::parse(piped.output.substr(0, at))["particles"], 6859) << stdout_name;
+  }
+  const fs::path fifo = t.path / "stats.fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const test::Measured through_fifo = test::run_measured(
+      "cat " + q(fifo.string()) + " > " + q((t.path / "read.json").string()) + " & " + test::cli() + " surface " +
+      small_frame() + " -q -o " + q((t.path / "m.ply").string()) + " --stats " + q(fifo.string()) + "; rc=$?; wait; exit $rc");
+  ASSERT_EQ(through_fifo.status, 0) << through_fifo.output;
+  EXPECT_EQ(nlohmann::json::parse(slurp(t.path / "read.json"))["particles"], 6859);
+  EXPECT_EQ(fs::status(fifo).type(), fs::file_type::fifo) << "the named pipe was replaced";
 }
 
 // --- a full disk, and a process killed mid-write ------------------------------------------------

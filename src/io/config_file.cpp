@@ -11,6 +11,7 @@
 #include "meniscus/config.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/messages.hpp"
+#include "meniscus/parameters.hpp"
 
 namespace meniscus {
 
@@ -76,9 +77,15 @@ Params read_config(const std::string& path, const Params& base) {
   }
   if (!document.is_object())
     throw FormatError(path, "", fmt::format("expected a JSON object of parameters, got {}", document.type_name()));
-  // A --stats file replays its "parameters" (the counts and times beside them are ignored).
-  const json& object =
-      document.contains("parameters") && document["parameters"].is_object() ? document["parameters"] : document;
+  // A --stats file replays its "parameters" (the counts and times beside them are ignored), less
+  // the machine's resources it recorded (the "execution" group: threads, backend, memory bound):
+  // those come from the machine that replays, unless its options give them. A hand-written
+  // configuration is taken as written.
+  const bool stats_file = document.contains("parameters") && document["parameters"].is_object();
+  json object = stats_file ? document["parameters"] : document;
+  if (stats_file)
+    for (const ParamSpec& spec : parameter_table())
+      if (spec.group == "execution") object.erase(std::string(spec.key));
   try {
     return params_from_json(object, base);
   } catch (const InvalidParameter& e) {

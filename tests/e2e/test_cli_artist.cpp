@@ -7,6 +7,7 @@
 #include <iterator>
 #include <memory>
 #include <set>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -267,6 +268,44 @@ TEST(CliArtist, AStatsFileReplaysTheSameParametersAndMesh) {
   b.erase("spacing_estimated");
   EXPECT_EQ(a, b);
   EXPECT_EQ(read_mesh(tmp.file("a.ply")).vertices, read_mesh(tmp.file("b.ply")).vertices);
+}
+
+TEST(CliArtist, AReplayTakesTheMachineResourcesOfTheMachineThatReplays) {
+  TempDir tmp;
+  std::string out;
+  ASSERT_EQ(run_command(cli() + " surface " + frame9() + " -o " + tmp.file("a.ply") + " --threads 1 --backend cpu --stats " +
+                            tmp.file("a.json") + " -q",
+                        &out),
+            0)
+      << out;
+  // As if recorded on another machine: far more CPUs than this one has, and a memory bound far
+  // below what this frame needs.
+  nlohmann::json recorded = nlohmann::json::parse(std::ifstream(tmp.file("a.json")));
+  recorded["parameters"]["threads"] = 4096;
+  recorded["parameters"]["max_memory_gb"] = 0.001;
+  recorded["parameters"]["backend"] = "cuda";
+  std::ofstream(tmp.file("other_machine.json")) << recorded.dump(2);
+  ASSERT_EQ(run_command(cli() + " surface " + frame9() + " -o " + tmp.file("b.ply") + " --config " +
+                            tmp.file("other_machine.json") + " --stats " + tmp.file("b.json") + " -q",
+                        &out),
+            0)
+      << out;
+  const nlohmann::json b = nlohmann::json::parse(std::ifstream(tmp.file("b.json")));
+  EXPECT_NE(b["threads_from"], "--threads");
+  EXPECT_LE(b["parameters"]["threads"].get<int>(), int(std::thread::hardware_concurrency()));
+  EXPECT_NE(b["max_memory_from"], "--max-memory");
+  EXPECT_GT(b["parameters"]["max_memory_gb"].get<double>(), 0.1);
+  EXPECT_EQ(b["parameters"]["backend"], "auto");
+  EXPECT_EQ(read_mesh(tmp.file("a.ply")).vertices, read_mesh(tmp.file("b.ply")).vertices);
+  // Options given to the replay still win.
+  ASSERT_EQ(run_command(cli() + " surface " + frame9() + " -o " + tmp.file("c.ply") + " --config " +
+                            tmp.file("other_machine.json") + " --threads 1 --stats " + tmp.file("c.json") + " -q",
+                        &out),
+            0)
+      << out;
+  const nlohmann::json c = nlohmann::json::parse(std::ifstream(tmp.file("c.json")));
+  EXPECT_EQ(c["threads_from"], "--threads");
+  EXPECT_EQ(c["parameters"]["threads"], 1);
 }
 
 TEST(CliArtist, BadControlsExitTwoWithAClearMessageAndNoOutput) {

@@ -225,8 +225,7 @@ int main(int argc, char** argv) {
     // pays for the thread pool's start and the allocator's first growth, which a frame of a
     // sequence never sees; and a tool's first run after the other tool's inherits that tool's
     // heap (OpenVDB's freed tree nodes, meniscus' freed arrays), which a sequence of one tool's
-    // frames never does either (bench/RESULTS.md: splash 1M's run without smoothing took 0.2 s
-    // longer right after OpenVDB's than after its own).
+    // frames never does either, and which slows the run that follows (bench/RESULTS.md#caveats).
     std::vector<Column> cols;
     if (warmup) (void)reconstruct(scene.particles, no_smooth);
     cols.push_back(run_meniscus("meniscus-nosmooth", scene, no_smooth, repeat, samples));

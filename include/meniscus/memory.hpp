@@ -25,8 +25,8 @@ bool release_large_blocks_eagerly();
 /// smoothing and at the end of the run the heap's free pages go back to the system (malloc_trim)
 /// and large blocks get their own mappings again, so the peak stays that of
 /// release_large_blocks_eagerly(): the smoothing's arrays are many and of many sizes, and a heap
-/// would fragment under them. On splash 1M the stages before the smoothing run about a sixth
-/// faster for a peak 1 % higher (bench/RESULTS.md). Process-wide: it changes malloc's
+/// would fragment under them. The stages before the smoothing then spend less time in page
+/// faults, for a peak hardly higher (docs/method.md "Memory"). Process-wide: it changes malloc's
 /// settings while a run is in those stages and then leaves glibc's default mmap count and trim
 /// threshold (its dynamic thresholds off, as release_large_blocks_eagerly() leaves them). The CLI
 /// and the benchmarks turn it on at start-up. Returns false where it does not apply (not glibc).

@@ -108,8 +108,8 @@ inline constexpr double kFlickerCapEdges = 16;
 /// `bound` of it fits in a disk of radius 2√bound: at most 3√3·bound), so such a mesh needs at
 /// least ∫_{K>0} √K dA / (3√3·bound) triangles there, whatever its flat and saddle parts take. K
 /// is each vertex's angle defect over its share of area, both summed over its rings twice (a
-/// filter about half a spacing wide on a meniscus mesh: the estimate moves 3 % between one and
-/// four rings on the bundled frames); vertices on a border add nothing. A lower estimate for
+/// filter about half a spacing wide on a meniscus mesh, wide enough that more rings hardly change
+/// the estimate on the bundled frames); vertices on a border add nothing. A lower estimate for
 /// small bounds, what a simplification at that bound is measured against (bench/compare.cpp).
 double least_triangles_within(const TriangleMesh& mesh, double bound);
 

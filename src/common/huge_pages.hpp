@@ -1,19 +1,19 @@
 // meniscus — transparent huge pages for the large arrays of a run (Linux; elsewhere a no-op).
 //
-// The union-find of the void pass, the vertex positions and the normals of a splash frame run to
+// The union-find of the void pass, the vertex positions and the normals of a large frame run to
 // hundreds of MB and are read at random (by triangle corner): with 4 KiB pages most of those reads
 // miss the TLB. Where the system leaves THP to the program (`madvise` mode, Debian's default),
-// asking for it on these arrays cut the void pass by about a fifth and the mesh write by about a
-// quarter on splash 1M. The smoothing's per-vertex arrays (adjacency, operator,
-// constraint caches, W x, colour classes, the reordered mesh) are read at random some sixty times
-// each: on huge pages its sweeps took about 4 % less on splash 1M. Arrays written once in order
-// and then streamed (the field, the march pages, the weld's keys, the radix scratch) are better
-// off without: a huge page is zeroed whole at its first touch, ahead of the writes, which then
-// miss the cache — the field and the extraction measured 10-15 % slower with it. glibc's own
-// switch (GLIBC_TUNABLES=glibc.malloc.hugetlb=1) is read at process start only, so a library
-// cannot set it, and it would apply to every array alike. The extraction's vertex positions left
-// huge pages again (weld.cpp): with the kernel's `defrag` = `madvise` their first touch could stall
-// in compaction, and the later passes' prefetched reads no longer gained from them.
+// asking for it on these arrays shortens the void pass and the mesh write. The smoothing's
+// per-vertex arrays (adjacency, operator, constraint caches, W x, colour classes, the reordered
+// mesh) are read at random dozens of times each, so its sweeps gain too. Arrays written once in
+// order and then streamed (the field, the march pages, the weld's keys, the radix scratch) are
+// better off without: a huge page is zeroed whole at its first touch, ahead of the writes, which
+// then miss the cache and make the field and the extraction slower. glibc's own switch
+// (GLIBC_TUNABLES=glibc.malloc.hugetlb=1) is read at process start only, so a library cannot set
+// it, and it would apply to every array alike. The vertex positions of the numbered weld
+// (weld_numbered in weld.cpp) stay on ordinary pages: with the kernel's `defrag` = `madvise` their
+// first touch can stall in compaction (bench/RESULTS.md#caveats), and the later passes' prefetched
+// reads do not gain from huge pages.
 #pragma once
 
 #include <algorithm>
@@ -35,8 +35,8 @@ namespace meniscus {
 
 /// std::allocator, except that a value-less construct default-initialises: resize() of a vector
 /// of trivial elements writes nothing. A large array that a parallel pass fills whole is then
-/// touched first by that pass, on every thread, instead of being zeroed serially before it (on
-/// splash 1M the smoothing set-up spent about 1 s of its 10 in such serial memsets).
+/// touched first by that pass, on every thread, instead of being zeroed serially before it (serial
+/// memsets of the smoothing set-up's arrays would leave the other cores idle meanwhile).
 template <class T>
 struct DefaultInitAllocator : std::allocator<T> {
   using value_type = T;
@@ -88,10 +88,10 @@ inline void advise_huge_pages(void* data, std::size_t bytes) {
 /// parallel: one `madvise(MADV_POPULATE_WRITE)` (Linux 5.14) per 4 MiB chunk, a system call and
 /// not a write, so it may cover storage a vector has reserved but not yet constructed. A
 /// `resize` or `assign` that value-initialises a fresh array faults it in from the calling thread
-/// alone: on splash 1M without smoothing those serial faults — the vertex positions, the
-/// triangles, the weld's and radix sort's scratch, the field's values, the normals — took about
-/// 1 s of the main thread while the other core waited. Where the call is not
-/// supported it does nothing and the pages fault in at their first write, as before.
+/// alone, while the other cores wait: on a large frame those serial faults (the vertex positions,
+/// the triangles, the weld's and radix sort's scratch, the field's values, the normals) are a
+/// large part of the stages without smoothing. Where the call is not supported it does nothing
+/// and the pages fault in at their first write.
 inline void populate_pages(void* data, std::size_t bytes) {
 #if defined(__linux__) && defined(MADV_POPULATE_WRITE)
   constexpr std::uintptr_t kPage = 4096, kChunk = std::uintptr_t(4) << 20;

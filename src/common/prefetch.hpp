@@ -1,10 +1,9 @@
 // meniscus — software prefetch for the passes that stream through arrays of hundreds of MB.
 //
-// On the Intel host of the benchmarks the hardware prefetchers barely ran ahead of such passes:
-// finding the vertex range of each chunk of splash 1M's 26 M triangles (a min/max over 314 MB)
-// took 0.078 s, its loads stalling; asking for the line 2 KB ahead, once a line, took 0.022 s.
-// The hint costs one instruction a line where the hardware already streams, never faults, and
-// changes no result.
+// The hardware prefetchers of some hosts barely run ahead of such passes (a min/max over the
+// triangles of a large mesh stalls on its loads); asking for the line 2 KB ahead, once a line,
+// keeps them fed. The hint costs one instruction a line where the hardware already streams, never
+// faults, and changes no result.
 #pragma once
 
 #include <bit>

@@ -1,7 +1,7 @@
 // meniscus — parallel LSD radix sort (Satish, Harris & Garland 2009 describe the same count / scan
-// / scatter passes for GPUs; cub::DeviceRadixSort is the CUDA counterpart). The edge weld's 64-bit
-// keys sort 3–8× faster this way than with a comparison sort; the spatial reordering sorts the
-// triangles themselves by their smallest corner.
+// / scatter passes for GPUs; cub::DeviceRadixSort is the CUDA counterpart). Linear in the keys and
+// streaming, it sorts the edge weld's 64-bit keys several times faster than a comparison sort;
+// the spatial reordering sorts the triangles themselves by their smallest corner.
 #pragma once
 
 #include <algorithm>

@@ -88,7 +88,7 @@ __global__ void compact_kernel(const uint32_t* tris, uint64_t nt, const uint32_t
 
 namespace {
 
-/// The components of a device mesh (mesh/voids.cpp's mesh_components): each vertex's root (the
+/// The components of a device mesh (mesh/components.cpp's mesh_components): each vertex's root (the
 /// component's smallest vertex), and per root the signed volume and whether it has triangles.
 struct DeviceComponents {
   DeviceBuffer<uint32_t> root;

@@ -55,7 +55,7 @@ bool gather_inside_masks(const SparseField& field, std::span<const uint8_t> cell
 /// writes 3 edge codes per triangle there (BlockEdgeCodes of the block's lattice; cell order z, y,
 /// x, then the kernel's order). Codes, not keys: the kernel adds a 16-bit delta instead of a 64-bit
 /// one, and the block's weld indexes its table with the code as it comes, without decoding a key
-/// (on splash 1M the decode was about a third of the weld's time).
+/// (decoding keys would be a large share of the weld's time).
 using BlockKernel = uint32_t (*)(const PaddedMasks& masks, uint16_t* out);
 
 /// Which edges of a padded block's cells cross the surface, from the inside masks alone: for each

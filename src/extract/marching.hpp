@@ -54,8 +54,8 @@ struct BlockEdgeCodes {
 /// the index of each corner's edge among them, 3 per triangle (corner c's key is
 /// edge_key(b, block_edges[b][block_corners[b][c]])): both in pages each thread filled as it
 /// marched (one pass, no count pass, no copy; the corners' keys themselves never leave the
-/// thread's cache). Two bytes an edge and two a corner instead of 8 and 4: on splash 1M the pages
-/// held 440 MB at the run's peak, beside the weld's copies of them.
+/// thread's cache). Two bytes an edge and two a corner instead of 8 and 4: the pages are alive at
+/// the extraction's peak, beside the weld's copies of them, so their size counts in the run's.
 struct MarchedCorners {
   std::vector<std::unique_ptr<uint16_t[]>> edge_pages;
   std::vector<std::unique_ptr<uint16_t[]>> corner_pages;

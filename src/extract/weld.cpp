@@ -359,8 +359,8 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
 
   resize_populated(mesh.triangles, m.corner_count() / 3);
   // Ordinary pages for the positions too: on huge pages (madvise'd, as the voids' and normals'
-  // random reads would like) the first surfacing after a pause stalled 0.15-0.2 s in the kernel's
-  // compaction for them, and the later passes gained no measurable time from them (splash 1M).
+  // random reads would like) the first surfacing after a pause can stall in the kernel's
+  // compaction for them (bench/RESULTS.md#caveats), and the later passes gain no time from them.
   resize_populated(mesh.vertices, std::size_t(slab_start.back()));
   const SampleLattice& lattice = field.lattice();
   const std::size_t repeated = tbb::parallel_reduce(

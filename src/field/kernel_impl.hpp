@@ -66,11 +66,11 @@ inline float yu_turk_bulk_variance(float Rn) { return 0.15f * Rn * Rn; }
 /// an anisotropic kernel centre from its particle (centre_holding_particle). The smoothing holds
 /// the surface outside every inner shell, which keeps a particle inside only if it lies inside
 /// its own; a surface particle's shell is thin along the normal (0.2–0.3 d at r_inner) and λ = 0.3
-/// pulls its centre up to 0.27 d inwards, which left particles at up to 1.2 r_inner from their
-/// centres, outside their shells, just outside the surface (dam break 23, double dam break 26).
-/// 0.75 leaves a quarter of the shell, 0.03–0.06 d along the normal, between a particle and the
-/// wall the surface rests on, more than the surface's triangles stray from it (at 1.0 one particle
-/// stayed outside on double dam break 26 and on the free particles; at 0.9 and 0.75 none).
+/// pulls its centre up to 0.27 d inwards, which can leave a particle farther from its centre than
+/// r_inner, outside its shell, just outside the surface. 0.75 leaves a quarter of the shell,
+/// 0.03–0.06 d along the normal, between a particle and the wall the surface rests on, more than
+/// the surface's triangles stray from it (a full shell, 1.0, still let a particle out on some
+/// bundled frames; 0.75 lets none out on any).
 inline constexpr float kCentreInShell = 0.75f;
 
 /// Yu & Turk's pass over the raw particles (centre smoothing, ellipsoids) for resolved parameters
@@ -164,8 +164,8 @@ MENISCUS_HD inline float cube_root(float x) {
 /// orientation scaled to unit volume (det A = 1), so the shells of every particle hold the volume
 /// of Williams' spheres. The kernel's own scale is a density device — Yu & Turk shrink a particle
 /// with few neighbours to k_n = 0.5 of the bulk — and shells that small would pull the surface
-/// inside the sparse particles they should enclose (dam break 23: 4.5 % of the particles outside,
-/// 0.9 % with unit-volume shells; double dam break 26: 13.7 % against 1.7 %).
+/// inside the sparse particles they should enclose (docs/fields.md, "Keeping every particle
+/// inside").
 MENISCUS_HD inline Ellipsoid unit_volume_shell(const Ellipsoid& e) {
   const float k = cube_root(e.det);  // det A = 1/(σ̃₁σ̃₂σ̃₃): A/k has determinant 1
   Ellipsoid s;

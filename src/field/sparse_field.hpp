@@ -54,8 +54,8 @@ class SparseField {
   SparseField(SampleLattice lattice, std::vector<uint64_t> block_keys, float background);
   struct Unwritten {};
   /// The same, leaving the samples unwritten, for a builder that writes every one of them (in
-  /// parallel, so that each thread faults in its own pages): a serial fill of splash 1M's 176 MB
-  /// of samples, all overwritten, took 0.03 s.
+  /// parallel, so that each thread faults in its own pages): a fill before it, all overwritten,
+  /// would cost one thread a pass over hundreds of MB on a large frame.
   SparseField(SampleLattice lattice, std::vector<uint64_t> block_keys, float background, Unwritten);
 
   const SampleLattice& lattice() const { return lattice_; }

@@ -89,8 +89,8 @@ class KeyIndex {
 /// The index of a lattice cell among a sorted list of unique cell keys (pack_coords): a dense array
 /// over the box of the cells (kNotFound where unoccupied) where it takes no more memory than the
 /// hash index (4 bytes a box cell against 16 a slot, about two slots a cell), else a KeyIndex. A
-/// dense lookup reads neighbouring entries for neighbouring cells, where the hash scatters them:
-/// the distance field's scatter on splash 1M spent a tenth of its time on the hash slot's load.
+/// dense lookup reads neighbouring entries for neighbouring cells, where the hash scatters them
+/// and the distance field's scatter waits on each slot's load.
 class CellIndex {
  public:
   CellIndex() = default;

@@ -174,8 +174,8 @@ void remove_sorted(std::vector<T>& values, std::size_t per, std::span<const uint
 }
 
 /// A vertex's index once the sorted vertices `gone` are removed: v − (drops below v), from a count
-/// per 64 vertices and, in the few words with a drop, one bit per vertex (2.4 MB for 13 M
-/// vertices, against a 52 MB remap array).
+/// per 64 vertices and, in the few words with a drop, one bit per vertex (12 bytes per 64
+/// vertices, against 4 bytes a vertex for a remap array).
 class RenumberAfterDrops {
  public:
   RenumberAfterDrops(std::size_t n, std::span<const uint32_t> gone) : bits_(n / 64 + 1, 0), below_(n / 64 + 2, 0) {

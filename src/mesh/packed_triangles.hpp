@@ -17,7 +17,7 @@ namespace meniscus {
 /// The triangles of a mesh in blocks of kBlock, each triangle as three zigzag LEB128 integers: its
 /// first corner less the previous triangle's first corner (0 before a block's first), and its
 /// other two corners less its first. On a mesh numbered in space (reorder_vertices_spatially)
-/// the differences are small: about 3.5 bytes a triangle on the splash scenes instead of 12.
+/// the differences are small: a few bytes a triangle instead of 12.
 /// Packed and unpacked in parallel, block by block.
 class PackedTriangles {
  public:

@@ -40,7 +40,7 @@ void reorder_vertices_spatially(TriangleMesh& mesh, float cell) {
   for_each_index(nv, [&](std::size_t i) { keys[i] = uint64_t(morton_key(x[i], inv_cell)) << 32 | i; });
   radix_sort(keys, 32, 62);
   // The sorted keys' payloads are the old indices in the new order: the permutation, without an
-  // array of its own (on splash 1M the arrays of this function set the peak of the whole run).
+  // array of its own (on a large frame this function's arrays can set the whole run's peak).
   {
     auto old_of_new = [&](std::size_t i) { return uint32_t(keys[i]); };
     permute(mesh.vertices, nv, old_of_new);
@@ -66,9 +66,8 @@ void reorder_vertices_spatially(TriangleMesh& mesh, float cell) {
   });
   std::vector<uint32_t>().swap(new_of_old);
   // The old positions (and normals) were freed above; the extraction placed them in the heap
-  // (HeapReuseScope), where they would stay resident through the sort's copy of the triangles:
-  // on splash 1M that made this stage the full run's peak (~1030 MB RSS against ~810 MB of live
-  // arrays).
+  // (HeapReuseScope), where they would stay resident through the sort's copy of the triangles
+  // and raise the run's peak above its live arrays.
   give_back_free_heap_pages();
   radix_sort_by(mesh.triangles, [](const Triangle& t) { return std::min({t[0], t[1], t[2]}); }, 0,
                 int(std::bit_width(nv - 1)));

@@ -57,7 +57,7 @@ struct Preset {
 };
 
 constexpr Preset kPresets[] = {
-    // Coarser than 0.6 and lone droplets collapse (detail 0.5: 9 % of their volume left).
+    // Coarser than 0.6 and lone droplets collapse to a small part of their volume.
     {"preview", 0.6, 1.0, 10, 5, 0},
     {"production", 1.0, 1.0, 20, 10, 3},
     // r_outer 1.25 d bridges particles up to 2.5 d apart and makes a lone droplet one

@@ -25,13 +25,13 @@ double resident_bytes() {
 }
 
 /// What a run needs per block of the field band, through the smoothing: the block's samples, the
-/// mesh extracted in it and that mesh's smoothing arrays. Measured on the bundled real frames
-/// (peak RSS over the baseline / field blocks, default field): 16-27 KB; 24 KB is the estimate,
-/// the 90 % default share of the grant the margin.
+/// mesh extracted in it and that mesh's smoothing arrays. Set from the bundled real frames' peak
+/// RSS over the baseline per field block (default field), near the top of their range; the 90 %
+/// default share of the grant is the margin.
 constexpr double kRunBytesPerBandBlock = 24e3;
 /// What the simplification adds a block where it runs (--decimate): the points, normals, the
-/// finished mesh's triangles and the patches it keeps over the finished mesh. Measured 16-25 KB a
-/// block (the dam break 23, the SPHysics tank at E = 0.02).
+/// finished mesh's triangles and the patches it keeps over the finished mesh. Set above what the
+/// bundled frames measure a block at E = 0.02.
 constexpr double kDecimateBytesPerBandBlock = 32e3;
 
 }  // namespace

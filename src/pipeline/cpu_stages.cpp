@@ -112,8 +112,8 @@ class CpuStages final : public StageBackend {
     stats_.removed_blobs = remove_unsupported_blobs(mesh_, *grid_, plan_.void_volume, plan_.blob_min_volume);
   }
 
-  /// The extraction numbers vertices in edge-key (row-major) order; the sweeps run 2-4x faster on
-  /// a Z-ordered mesh, where a vertex's ring and particle list sit near it in memory.
+  /// The extraction numbers vertices in edge-key (row-major) order; the sweeps run several times
+  /// faster on a Z-ordered mesh, where a vertex's ring and particle list sit near it in memory.
   void reorder() override {
     reuse_.end();  // the reordered mesh, which lives through the smoothing, gets its own mappings
     reorder_vertices_spatially(mesh_, plan_.lattice.cell_size);
@@ -129,7 +129,7 @@ class CpuStages final : public StageBackend {
       o.vertex_relax = weights;
     }
     // The particles' original indices serve only the attribute transfer from here on: without
-    // one, 4 bytes a particle less through the sweeps (4 MB of a 1M-particle block's peak).
+    // one, 4 bytes a particle less through the sweeps.
     if (plan_.transfer.empty()) grid_->release_order();
     const auto tick = [&](double f) {
       if (progress_) progress_("smooth", f);

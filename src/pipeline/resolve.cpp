@@ -225,8 +225,8 @@ Params resolve_params(const ParticleSet& particles, const Params& in) {
   if (p.kernel_radius == 0 && p.field != FieldMethod::distance) p.kernel_radius = 2 * d;
   // Anisotropic: λ = 0.3, not Yu & Turk's 0.9. Their centre smoothing removes the bumps of the
   // raw positions, which the constrained smoothing does here anyway; 0.9 pulls the surface
-  // particles' centres so far in that 12-16 % of the particles end up outside the surface (dam
-  // break 23, double dam break 26), while a thin sheet still needs some (λ = 0 tears it).
+  // particles' centres so far in that many particles end up outside the surface (docs/fields.md),
+  // while a thin sheet still needs some (λ = 0 tears it).
   if (p.smooth_particles == -1) p.smooth_particles = p.field == FieldMethod::anisotropic ? 0.3 : 0.0;
   if (p.iso == 0) switch (p.field) {
       case FieldMethod::distance: break;
@@ -267,8 +267,9 @@ double local_reach(const Params& p) {
   // What a projection reads: the (metric-)nearest particle, within r_outer (an ellipsoid's
   // longest axis at most k_r^(2/3) times that) of where the vertex is, plus that ellipsoid's
   // own reach; the velocity weights, the particles within the transfer radius. A vertex moves
-  // during the sweeps: kDrift allows 4 d (measured at most 2.9 d on every bundled frame with the
-  // default schedule, --field anisotropic and --extract cubes).
+  // during the sweeps: kDrift allows 4 d, with room above the largest move measured on the
+  // bundled frames with the default schedule, --field anisotropic and --extract cubes
+  // (docs/method.md#smooth--srcsmooth).
   constexpr double kDrift = 4;
   double projection = p.r_outer;
   if (anisotropic) projection = p.r_outer * std::cbrt(double(k.k_r) * k.k_r) + pass.pca_radius;

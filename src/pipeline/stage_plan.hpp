@@ -21,16 +21,14 @@
 namespace meniscus {
 
 /// The decimation's patches, in spacings: 8 d holds about 2,000 triangles of flat water; smaller
-/// patches leave more seams to later passes, larger ones only spread a change farther
-/// (post/decimate.hpp). On the dam break 23 at E = 0.02: 4 d kept 36 % of the triangles, 8 d
-/// 33.5 %, 16 d 32.6 % in about the same time, with twice the reach.
+/// patches leave more seams to later passes and keep more triangles, larger ones keep hardly fewer
+/// in about the same time and only spread a change farther (post/decimate.hpp).
 inline constexpr double kDecimateCell = 8;
 
 /// The patches for the bound `e` (in spacings): kDecimateCell up to e = 0.02, growing as
 /// √(e / 0.02) above. A coarser bound makes larger triangles, which small patches leave at their
-/// seams: at e = 0.1, 18 d patches keep 14,804 triangles of the SPHysics tank against 26,090 with
-/// 8 d ones, 10,398 of the double dam break against 14,206 and 27,826 of the dam break 23 against
-/// 32,876, for 5-20 % more of the stage's time.
+/// seams: growing the patches with the bound keeps markedly fewer triangles on the bundled frames
+/// for a little more of the stage's time.
 inline double decimate_cell_spacings(double e) { return kDecimateCell * std::max(1.0, std::sqrt(e / 0.02)); }
 
 struct StagePlan {
@@ -51,7 +49,7 @@ struct StagePlan {
   /// `voids`, `blobs`: small closed components the smoothing would crush (mesh/voids.hpp).
   bool remove_voids = false, remove_blobs = false;
   double void_volume = 0, blob_min_volume = 0;
-  /// `reorder`: when any sweep runs (the sweeps run 2-4x faster on a Z-ordered mesh); `smooth`.
+  /// `reorder`: when any sweep runs (the sweeps are much faster on a Z-ordered mesh); `smooth`.
   bool sweeps = false;
   SmoothSchedule schedule;
   bool ellipsoid_shells = false;  ///< anisotropic: the constraint shells are the particles' ellipsoids

@@ -29,10 +29,9 @@ constexpr float kMinAngleCos = 0.96592583f;  // cos 15°
 constexpr float kTurnCos = 0.70710678f;      // cos 45°
 constexpr float kFacingCos = 0.5f;           // cos 60°: a new triangle against its corners' input normals
 /// The share of the bound the input's points may lie from the simplified surface: the bound holds
-/// between the surfaces, and they can part farther between the points (measured independently on
-/// the bundled frames and the splashes at 0.02 d: up to 1.74 times the points' share, on a 200k wide
-/// splash under the ridges moved vertices make, 1.6 before vertices moved off the chord; at 0.6 one
-/// frame went 1 % past the bound).
+/// between the surfaces, and they can part farther between the points, most under the ridges
+/// that moved vertices make. A slightly larger share let a frame past the bound; 0.55 keeps every
+/// measured frame within it (bench/RESULTS.md#lean-meshes---decimate).
 constexpr double kMargin = 0.55;
 constexpr int kRounds = 3;
 
@@ -432,7 +431,8 @@ class PatchSimplifier {
   /// now), from the midpoint along the directions those planes pin down; the midpoint itself where
   /// that point lies farther from it than half of uv. On a curved surface it sits off the chord,
   /// on the surface's outer side, so the new triangles straddle the surface instead of cutting
-  /// under it (10-13 % fewer triangles at the same bound than the midpoint on the bundled frames).
+  /// under it: fewer triangles meet the bound than with the midpoint
+  /// (bench/RESULTS.md#lean-meshes---decimate).
   Vec3f balanced(uint32_t u, uint32_t v) const {
     const Vec3f mid = (at(u) + at(v)) * 0.5f;
     double a[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}, r[3] = {0, 0, 0};
@@ -510,9 +510,8 @@ class PatchSimplifier {
   /// triangle that runs from u to v): the squared distances of v from the planes of u's triangles,
   /// weighted by their areas — the quadric of the surface as it is now, not of the input
   /// (memoryless, in Lindstrom & Turk's sense), so no vertex carries one. The points keep the
-  /// bound; the cost only orders the collapses (against Garland & Heckbert's quadrics of the
-  /// input, measured on the bundled frames: the same count within 0.3 %, 1.7 % fewer on the
-  /// fluid 250, and 30-40 % less memory for the stage).
+  /// bound; the cost only orders the collapses, which Garland & Heckbert's quadrics of the input
+  /// order no better, for more memory (bench/RESULTS.md#lean-meshes---decimate).
   template <class Each>
   void costs(uint32_t u, Each&& each) const {
     const std::span<const uint32_t> fan = fan_[u];
@@ -576,8 +575,8 @@ class PatchSimplifier {
       });
       std::sort(targets.begin(), targets.end());
       // Into v where it is (the surface's own vertex); where a triangle or the bound refuses that
-      // (the surface bends there), v moves to meet u, for the cheapest v the valences allow (for
-      // all of them, to the midpoint: 1-2 % fewer triangles, 5-10 % more time).
+      // (the surface bends there), v moves to meet u, for the cheapest v the valences allow (moving
+      // every refused v takes only a few more triangles off, for more time).
       bool may_move = true;  // only the first v refused where it is may move
       for (const auto& [ignored, v] : targets) {
         const Verdict there = can_collapse(u, v, false);

@@ -11,8 +11,8 @@
 // both fans (Garland & Heckbert's placement over the current surface, from the two's midpoint),
 // which on a curved surface sits on its outer side, so the new triangles straddle the surface
 // rather than cut under it, and which must lie within 0.55 of the bound of the input surface.
-// Moving so keeps 18-20 % fewer triangles at the same bound than never moving v (to the midpoint:
-// 8-9 %), for 15-36 % more time (dam breaks 23 and 26, the bunny, the free particles).
+// Moving so keeps fewer triangles at the same bound than never moving v or moving it to the
+// midpoint, for some more time (bench/RESULTS.md#lean-meshes---decimate).
 // Every operation is refused unless, after it:
 //   - every point of the input surface that keeps the bound (its vertices, edge midpoints and
 //     triangle centroids) lies within 0.55 of the bound of the triangle that holds it: an
@@ -24,8 +24,8 @@
 //   - no new triangle has an angle under 15° (unless the one it replaces had a smaller one), and
 //     none turns more than 45° from the triangle it replaces or 60° from the input's normals at
 //     its corners (so no fold).
-// meshoptimizer (Debian's 0.18) was the engine before: it has no control of valence or angles, and
-// its collapses had to be checked by sampling, 8-13 times slower than this on the bundled frames.
+// Not meshoptimizer: it has no control of valence or angles, and its collapses must be checked
+// against the bound by sampling, which is much slower (bench/RESULTS.md#lean-meshes---decimate).
 // The mesh is cut into patches, the cells of a grid anchored at the origin (8 d wide in the
 // pipeline up to E = 0.02, about 2,000 triangles of flat water, wider above: stage_plan.hpp), simplified in parallel
 // with their seams kept (a vertex changes only where all its triangles are in the patch); up to 3 passes over grids

@@ -155,7 +155,7 @@ TriangleBvh::TriangleBvh(std::span<const Vec3f> vertices, std::span<const Triang
   impl_->scene = rtcNewScene(device);
   check(device, "rtcNewScene");
   rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
-  // Embree's Morton builder: 3-4x faster to build than its SAH builder on our meshes, whose
+  // Embree's Morton builder: much faster to build than its SAH builder on our meshes, whose
   // triangles are small and evenly sized, for the same query times (one BVH serves one query set).
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_LOW);
   RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);

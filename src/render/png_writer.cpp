@@ -16,7 +16,8 @@
 namespace {
 
 // zlib compresses better and faster than stb's built-in deflate. stb asks for level 8, which on
-// rendered images is ~4× slower than level 6 for 3 % smaller files, so its request is ignored.
+// rendered images is several times slower than level 6 for barely smaller files, so its request
+// is ignored.
 // stb frees the buffer with free(), so it must come from malloc(); nullptr reports failure.
 unsigned char* zlib_compress(unsigned char* data, int data_length, int* out_length, int /*quality*/) {
   uLongf capacity = compressBound(static_cast<uLong>(data_length));

@@ -1,11 +1,11 @@
 // meniscus — the adjacency's neighbour lists in 16 bits an entry, for the smoothing sweeps (CPU).
 //
 // The sweeps' vertices are numbered in space (a Z-ordered mesh, renumbered only within chunks of
-// 4096): about 99 % of a row's neighbours lie within ±30000 of the row's own vertex (splash, block,
-// dam break and SPHysics meshes: 0.45-1.1 % of the entries beyond ±32767). Each entry is then
-// stored as that difference, and the few further ones as an index into a list kept aside: 2 bytes
-// an entry instead of 4, about 12 bytes a vertex of the largest arrays of the B sweeps. Reading an
-// entry costs an add; a far one a load (a binary search past a chunk's first 2767 far entries).
+// 4096): on the meshes the pipeline makes nearly all of a row's neighbours lie within ±32767 of the
+// row's own vertex. Each entry is then stored as that difference, and the few further ones as an
+// index into a list kept aside: 2 bytes an entry instead of 4, about 12 bytes a vertex of the
+// largest arrays of the B sweeps. Reading an entry costs an add; a far one a load (a binary search
+// past a chunk's first 2767 far entries).
 #pragma once
 
 #include <algorithm>

@@ -268,11 +268,11 @@ MENISCUS_HD MetricNearest grid_nearest_in_metric(const Grid& g, const Ellipsoid*
 /// x is where the sweep moved the vertex from `from` (where its previous projection left it). A
 /// vertex that entered an inner shell from outside goes back to where its move entered it
 /// (enter_ellipsoid), not out along the line from the centre: a surface particle's inner shell is
-/// thin along the normal (0.2–0.3 d), the accelerated sweeps move vertices 0.3–1 d at convex
-/// spots, and a vertex carried past the centre went out on the far side, taking the surface across
-/// the particle (dam break 23: 94 of the 129 particles left outside; a jittered block's 8
-/// corners). A vertex that was inside already (the extracted surface, a ray search's best effort)
-/// goes out along the line from the centre, as on Williams' spheres.
+/// thin along the normal (0.2–0.3 d), the accelerated sweeps move vertices 0.3–1 d at convex spots,
+/// and a vertex carried past the centre would go out on the far side, taking the surface across the
+/// particle (docs/fields.md, "Keeping every particle inside"). A vertex that was inside already
+/// (the extracted surface, a ray search's best effort) goes out along the line from the centre, as
+/// on Williams' spheres.
 template <class NearestFn, class ExactFn>
 MENISCUS_HD Vec3f project_ellipsoid_with(Vec3f x, Vec3f from, float r_inner, float r_outer, const Vec3f* points,
                                          const Ellipsoid* ellipsoids, NearestFn&& nearest, ExactFn&& exact,

@@ -109,14 +109,13 @@ class CachedParticleLists {
 /// Per-vertex lists of the particles near each vertex, so that the projection in the smoothing
 /// sweeps (where vertices move little from one sweep to the next) scans a short contiguous
 /// list instead of querying the hash grid. Each list holds the (at most kCapacity) particles
-/// nearest to where it was made, sorted by distance, and the radius `reach` around its anchor
-/// (that point rounded, PackedParticleList) within which it holds every particle. Exact: the
-/// nearest particle to a point y with |y − anchor| = m is the nearest listed one when its
-/// distance is ≤ reach − m (certified); otherwise the
-/// list is rebuilt at y (and the grid answers if even that cannot certify). Each vertex touches
-/// only its own list, so vertices may be projected in parallel as long as no vertex is
-/// projected by two threads at once. Two particles a list (20 bytes a vertex with the packed
-/// record and the slack): as fast as four or eight in splash and block runs — the slack test ends
+/// nearest to where it was made, sorted by distance, and the radius `reach` around its anchor (that
+/// point rounded, PackedParticleList) within which it holds every particle. Exact: the nearest
+/// particle to a point y with |y − anchor| = m is the nearest listed one when its distance is ≤
+/// reach − m (certified); otherwise the list is rebuilt at y (and the grid answers if even that
+/// cannot certify). Each vertex touches only its own list, so vertices may be projected in parallel
+/// as long as no vertex is projected by two threads at once. Two particles a list (20 bytes a
+/// vertex with the packed record and the slack): as fast as four or eight — the slack test ends
 /// most projections, and the nearest particle rarely changes between refreshes — and 8 bytes a
 /// vertex less than four, through the whole smoothing.
 class NeighbourCache : public CachedParticleLists<2, PackedParticleList> {
@@ -182,8 +181,8 @@ Vec3f project_vertex(const EllipsoidConstraint& c, Vec3f x, Vec3f from);
 /// at all while L·(its move) ≤ s. Otherwise the list is rebuilt at y, and nearest_in_metric
 /// answers if even that cannot certify. Gives exactly project_vertex(c, x, from); each vertex touches
 /// only its own list (vertices may be projected in parallel, no vertex by two threads at once).
-/// Four particles a list: as fast as eight on an anisotropic splash, 16 bytes a vertex less; two
-/// made the A sweeps 8 % slower (the metric-nearest particle changes more often).
+/// Four particles a list: as fast as eight, 16 bytes a vertex less; two make the A sweeps slower
+/// (the metric-nearest particle changes more often).
 class EllipsoidCache : public CachedParticleLists<4> {
  public:
   void build(const EllipsoidConstraint& c, std::span<const Vec3f> x);

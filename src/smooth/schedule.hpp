@@ -36,11 +36,10 @@ struct SmoothSchedule {
 
 /// The spectral radius of the A sweeps' Jacobi iteration for which the Chebyshev weights are made.
 /// The distance fields (distance, zhu-bridson: unions of spheres, bumpy as extracted): 0.97, which
-/// flattens a jittered block's top face 20-25 % more than 20 over-relaxed Gauss–Seidel sweeps did,
-/// with fewer thin triangles once the tail below is plain. The density fields (metaball, sph,
-/// anisotropic: smooth as extracted): 0.9 — there 0.97 leaves more particles outside and thin
-/// triangles (anisotropic, dam break 23: 1.3 % of the particles outside and 1.1 % of the angles
-/// under 10°; at 0.9: 0.5 % and 0.4 %; Gauss–Seidel did 1.0 % and 1.0 %).
+/// flattens a jittered block's top face within the schedule's few A sweeps, with few thin
+/// triangles once the tail below is plain (bench/RESULTS.md#how-good). The density fields
+/// (metaball, sph, anisotropic: smooth as extracted): 0.9 — there 0.97 leaves more particles
+/// outside and more thin triangles on the real frames than 0.9 does.
 inline constexpr float kChebyshevRhoA = 0.97f;
 inline constexpr float kChebyshevRhoDensity = 0.9f;
 

@@ -265,8 +265,8 @@ SmoothingStats smooth_batched(std::vector<Vec3f>& x, std::vector<Triangle>& tria
   // Batches hold, beside the sweeps' arrays of the largest batch (about 115 bytes a vertex), about
   // 30 bytes a vertex of the whole mesh (its positions and packed triangles, a batch number, a
   // batch index and the batch's vertex list): with a component of over 3/4 of the mesh, the whole
-  // mesh at once needs less (the SPHysics frame of the bench: one component of 98 %, 8.6 MB of
-  // its 48 MB peak). A batch size the caller gave is kept.
+  // mesh at once needs less (a tank frame, almost all of it one component). A batch size the
+  // caller gave is kept.
   const bool pays = o.batch_vertices != 0 || batches.largest_component * 4 <= nv * 3;
   if (batches.count == 1 || !pays) {
     std::vector<uint32_t>().swap(batches.of);

@@ -225,9 +225,9 @@ TEST(Cli, InspectReportsTheQualityOfAnyMesh) {
   EXPECT_NE(out.find("missing.ply"), std::string::npos) << out;
 }
 
-// Frames that jump — another scene, one particle after a full frame, a frame moved far away —
-// as one sequence: the flicker against each previous frame is measured in bounded work (the old
-// grid search took minutes on the first pair), counted at its cap where the frames are apart.
+// Frames that jump — another scene, one particle after a full frame, a frame moved far away — as
+// one sequence: the flicker against each previous frame is measured in bounded work (an unbounded
+// search would take minutes on the first pair), counted at its cap where the frames are apart.
 TEST(Cli, SequenceOfDissimilarFramesMeasuresFlickerInBoundedTime) {
   TempDir tmp;
   std::filesystem::create_directory(tmp.path / "sim");

@@ -385,8 +385,8 @@ TEST(Decimate, KeepsNonManifoldSpotsAsTheyAre) {
 
 // A coarser bound makes larger triangles, which small patches leave at their seams; the pipeline's
 // patches grow with the bound, so it keeps at most 7 % more than one patch over the whole frame
-// would (measured 4-5 % on the double dam break at E = 0.02, 0.05 and 0.1; 8 d patches kept 19 %
-// and 43 % more at E = 0.05 and 0.1).
+// would (measured 4-5 % on the double dam break at E = 0.02, 0.05 and 0.1; fixed 8 d patches
+// keep far more at the coarser bounds).
 TEST(Decimate, CoarseBoundsGetPatchesLargeEnoughForTheirTriangles) {
   if (test::kSanitized) GTEST_SKIP() << "counts only: the Release run has it";
   Params p;

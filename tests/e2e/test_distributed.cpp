@@ -152,7 +152,7 @@ TEST(Distributed, RealFramesInSlabsWeldToTheWholeFrameBitForBit) {
 // A 200k-particle wide splash in 4 slabs, where each slab with its halo holds well under the
 // whole frame: the weld is the whole frame's mesh bit for bit. (The 1M and 3M splashes over real
 // MPI ranks: bench/mpi.sh, bench/RESULTS.md.) Release only: under the sanitizers the smallest
-// splash whose slabs hold under 70 % of it takes 2 minutes, and the `mpi` test's wide splash
+// splash whose slabs hold under 70 % of it takes minutes, and the `mpi` test's wide splash
 // (real ranks) and the real frames above run the same code there.
 TEST(Distributed, WideSplashInFourSlabs) {
   if (test::kSanitized) GTEST_SKIP() << "a large scene: the Release run has it";

@@ -268,12 +268,10 @@ TEST(FieldMethods, ParametersAreDerivedValidatedAndReported) {
 }
 
 // The anisotropic surface must enclose every particle it was made from, on every real frame (a
-// particle outside the surface is the defect a viewer sees at once). With Yu & Turk's λ = 0.9 and
-// constraint shells of the kernels' own size it left 33 % (double dam break 26) and 23 % (bunny
-// 14) of them outside; with λ = 0.3 and unit-volume shells 0.1–6.5 % (1.4 % and 0.7 % there),
-// 129 particles on dam break 23. Then: the field's inside includes every outer shell, a vertex
-// goes back where it entered an inner shell, and each centre keeps its particle inside its shell
-// (docs/fields.md). About 4.5 s for the 8 frames on 2 cores (SPHysics 1.7 s, dam break 23 1.2 s).
+// particle outside the surface is the defect a viewer sees at once). What keeps them inside: λ =
+// 0.3 and unit-volume constraint shells, the field's inside including every outer shell, a vertex
+// going back where it entered an inner shell, and each centre keeping its particle inside its
+// shell (docs/fields.md).
 TEST(FieldMethods, AnisotropicSurfaceKeepsTheParticlesInside) {
   const std::vector<std::string> frames = test::real_frames();
   ASSERT_GE(frames.size(), 8u);
@@ -292,9 +290,9 @@ TEST(FieldMethods, AnisotropicSurfaceKeepsTheParticlesInside) {
   }
 }
 
-// The isotropic kernel fields on real frames: before remove_unsupported_blobs the smoothing
-// crushed their gap blobs and sub-shell droplets into zero-area triangles (double dam break 26:
-// metaball 220, sph 602; dam break 9: zhu-bridson 156). Now none, and the mesh stays watertight.
+// The isotropic kernel fields on real frames: without remove_unsupported_blobs the smoothing
+// crushes their gap blobs and sub-shell droplets into zero-area triangles on these two frames.
+// With it there are none, and the mesh stays watertight.
 TEST(FieldMethods, KernelFieldsLeaveNoDegenerateTrianglesOnRealFrames) {
   for (const char* file : {"ply/double_dam_break_frame_26_4732_particles.ply", "ply/dam_break_frame_9_6859_particles.ply"}) {
     const ParticleSet ps = read_particles(test::data_file(file));

@@ -21,7 +21,7 @@ TEST_P(Checksum, EveryVariantOfTheFrameIsTheStoredMeshBitForBit) {
   const ParticleSet ps = read_particles(test::data_file("ply/" + GetParam()));
   const std::string frame = GetParam().substr(0, GetParam().find('.'));
   for (const test::ChecksumVariant& v : test::checksum_variants()) {
-    // Decimation takes 9-15x the surfacing: the frames under 8,000 particles carry it.
+    // Decimation costs more than the surfacing itself: the frames under 8,000 particles carry it.
     if (v.params.decimate > 0 && ps.size() >= 8000) continue;
     Params p = v.params;
     if (v.transfer_all)

@@ -66,7 +66,7 @@ TEST(Pipeline, JitteredBlockTopFaceIsFlat) {
 }
 
 // The bilaplacian sweeps must lower the bending energy wherever the fluid is: far from the origin
-// the coordinates' rounding (an ulp of 32 is 3.8e-6, 0.08 % of r_inner here) once made the
+// the coordinates' rounding (an ulp of 32 is 3.8e-6, 0.08 % of r_inner here) must not make the
 // constraint projection throw vertices onto their outer shell and each sweep raise the energy.
 TEST(Pipeline, BSweepsLowerTheEnergyFarFromTheOrigin) {
   const float d = 0.01f;

@@ -352,8 +352,9 @@ void expect_refused_within(const std::string& args, double max_memory_gb, const 
   EXPECT_LT(r.seconds, 30) << args;
 }
 
-// --decimate's points count in the frame's estimate: the dam break 23 (61 MB at its peak, 89 MB
-// with --decimate) surfaces within 80 MB, and is refused before its field with it.
+// --decimate's points count in the frame's estimate: the dam break 23 peaks under 80 MB without
+// --decimate and above it with, so within 80 MB it surfaces, and with --decimate it is refused
+// before its field.
 TEST(Safety, DecimationCountsInTheMemoryEstimate) {
   TempDir t;
   const std::string frame = test::data_file("ply/dam_break_frame_23_24389_particles.ply"),

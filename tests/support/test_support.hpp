@@ -13,8 +13,8 @@
 
 namespace meniscus::test {
 
-/// True in the AddressSanitizer build (gcc's or clang's). There the code runs about 4x slower, so
-/// the tests that repeat one path over every real frame or a large scene run a subset of their
+/// True in the AddressSanitizer build (gcc's or clang's). There the code runs several times slower,
+/// so the tests that repeat one path over every real frame or a large scene run a subset of their
 /// inputs there (large_for_sanitizers; each test names its subset); the Release run covers all.
 #if defined(__SANITIZE_ADDRESS__)
 inline constexpr bool kSanitized = true;

@@ -63,10 +63,10 @@ TEST(Constraint, VertexInTheLensOfTwoInnerShellsGoesToTheNearestCreasePoint) {
   }
 }
 
-// Far from the origin the coordinates' own rounding (an ulp of 128 is 1.5e-5) exceeds the
-// radii's: the projection must still settle in one step next to where the vertex was, and not
-// fall through to the ray search. It used to, and put the vertex on the outer shell: a jump of
-// r_outer − r_inner that made the bilaplacian sweeps raise the energy until their damping gave out.
+// Far from the origin the coordinates' own rounding (an ulp of 128 is 1.5e-5) exceeds the radii's:
+// the projection must still settle in one step next to where the vertex was, and not fall through
+// to the ray search, which would put the vertex on the outer shell: a jump of r_outer − r_inner
+// that makes the bilaplacian sweeps raise the energy until their damping gives out.
 TEST(Constraint, ProjectionFarFromTheOriginMovesTheVertexOnlyToTheShell) {
   const float r_in = 0.005f, r_out = 0.01f;
   const Vec3f o{128.3f, -97.1f, 203.7f};

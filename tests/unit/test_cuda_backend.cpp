@@ -155,9 +155,9 @@ TEST(Backend, WithoutADeviceCudaIsRefusedAndAutoFallsBack) {
   EXPECT_TRUE(r.stats.warnings.empty()) << r.stats.warnings.front();
 }
 
-// The field methods of #7 go to the same dispatch as the distance field (they used to be refused
-// on the CUDA backend): without a device, cuda is refused for the missing device and auto falls
-// back to the CPU with the same result as --backend cpu.
+// The field methods of #7 go to the same dispatch as the distance field (none is refused for its
+// field on the CUDA backend): without a device, cuda is refused for the missing device and auto
+// falls back to the CPU with the same result as --backend cpu.
 TEST(Backend, FieldMethodsTakeTheSameDispatchWithoutADevice) {
   if (have_real_cuda_device()) GTEST_SKIP() << "skipped: a CUDA device is present (this checks the no-device path)";
   ParticleSet ps = test::lattice_block(6, 6, 6, 0.1f, 0.1f);

@@ -1,6 +1,6 @@
 // Tests of the BVH queries (quality/triangle_bvh.hpp) and of the point-to-surface distance built on
-// them: exact answers against brute force, and the work of a query bounded where the old grid
-// search was not (far points, unrelated surfaces, a droplet at the centre of a hollow shell).
+// them: exact answers against brute force, and the work of a query bounded where a search
+// without a cap is not (far points, unrelated surfaces, a droplet at the centre of a hollow shell).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -106,9 +106,9 @@ TEST(SurfaceDistance, CapCountsFarPointsAtItAndMatchesBruteForceWithin) {
   EXPECT_GT(all.max, 2.0);
 }
 
-// The work of the flicker measure, counted in point–triangle tests (deterministic, unlike time),
-// on the cases the old grid search took minutes on. The bound: each point tests only triangles
-// within the cap of it, so points far from the surface cost nothing and the rest cost the
+// The work of the flicker measure, counted in point–triangle tests (deterministic, unlike time), on
+// the cases where a search without a cap would take minutes. The bound: each point tests only
+// triangles within the cap of it, so points far from the surface cost nothing and the rest cost the
 // triangles near them.
 TEST(SurfaceDistance, WorkIsBoundedOnUnrelatedFarAndNestedSurfaces) {
   const TriangleMesh big = icosphere(5, 1.0f);  // 20480 triangles, edge ≈ 0.03

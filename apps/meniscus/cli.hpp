@@ -47,9 +47,6 @@ std::string read_text_file(const std::string& path);
 /// Refuses an output name whose extension is no mesh format (before any work).
 void check_output_format(const std::string& output);
 
-/// The up axis named by --up.
-Vec3f up_axis(const std::string& up);
-
 /// Prints "warning: <text>" on stderr, with control characters escaped.
 void print_warning(std::string_view text);
 

@@ -133,10 +133,6 @@ void check_output_format(const std::string& output) {
                                      fmt::join(mesh_formats(), ", ")));
 }
 
-Vec3f up_axis(const std::string& up) {
-  return up == "x" ? Vec3f{1, 0, 0} : (up == "y" ? Vec3f{0, 1, 0} : Vec3f{0, 0, 1});
-}
-
 void print_warning(std::string_view text) { fmt::print(stderr, "warning: {}\n", printable(text)); }
 
 double memory_limit_bytes(double max_memory_gb) { return memory_limit(max_memory_gb).amount; }

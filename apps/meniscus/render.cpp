@@ -84,7 +84,6 @@ std::array<float, 2> parse_range(const std::string& text) {
 int run_render(const RenderArgs& a) {
   RenderOptions options;
   std::tie(options.width, options.height) = parse_size(a.size);
-  options.up = up_axis(a.up);
   options.yaw_degrees = a.yaw;
   options.pitch_degrees = a.pitch;
   options.color_attribute = a.color_by;
@@ -181,6 +180,27 @@ int run_render(const RenderArgs& a) {
     if (!options.color_range && auto_range && (*auto_range)[0] < (*auto_range)[1]) options.color_range = auto_range;
   }
   if (mesh_pattern && box.valid()) options.frame_bounds = Bounds{box.lo, box.hi};
+  // The up axis (auto): a Houdini file's convention, else gravity in the first frame's velocities
+  // (the mesh's transferred ones, or the particles') and in how its particles settle; a surface's
+  // own vertices say nothing of the kind (a pool's floor and top weigh the same), so they are not used.
+  UpAxis up{a.up == "auto" ? 2 : a.up[0] - 'x', "--up"};
+  if (a.up == "auto") {
+    const std::string lower = [&] {
+      std::string l = files.front().first;
+      for (char& c : l) c = char(std::tolower(static_cast<unsigned char>(c)));
+      return l;
+    }();
+    const bool houdini = lower.ends_with(".bgeo") || lower.ends_with(".bgeo.gz") || lower.ends_with(".bgeo.sc") ||
+                         lower.ends_with(".sc");
+    const auto velocity_of = [](const auto& set) {
+      const Attribute* v = set.find("velocity");
+      return v != nullptr ? v : set.find("v");
+    };
+    const Attribute* velocity = velocity_of(meshes.front());
+    if (velocity == nullptr) velocity = velocity_of(particles.front());
+    up = guess_up_axis(particles.front().positions, velocity, houdini ? "bgeo" : "");
+  }
+  options.up = up.direction();
 
   std::vector<Image> images;
   for (std::size_t i = 0; i < meshes.size(); ++i) {
@@ -201,8 +221,9 @@ int run_render(const RenderArgs& a) {
                    mapping == ColorMapping::magnitude ? " (magnitude)" : "", (*options.color_range)[0],
                    (*options.color_range)[1]);
     }
-    fmt::print(stderr, "wrote {} ({}×{}: {} frame(s) × {} view(s))\n", printable(a.output), picture.width, picture.height,
-               meshes.size(), a.turntable);
+    fmt::print(stderr, "wrote {} ({}×{}: {} frame(s) × {} view(s)), up axis {} ({})\n", printable(a.output),
+               picture.width, picture.height, meshes.size(), a.turntable, up.name(),
+               up.reason == "--up" ? "--up" : up.reason + "; --up sets it");
   }
   return 0;
 }
@@ -212,8 +233,10 @@ CLI::App* add_render_command(CLI::App& app, RenderArgs& render) {
   cmd->add_option("mesh", render.mesh, "mesh file, or a sequence pattern (mesh_####.ply): one tile per frame")->required();
   cmd->add_option("-o,--output", render.output, "picture to write (.png)")->required();
   cmd->add_option("--size", render.size, "size of each tile, WIDTHxHEIGHT, each side 1 to 8192")->capture_default_str();
-  cmd->add_option("--up", render.up, "up axis (SPlisHSPlasH and Houdini scenes are y-up)")
-      ->check(CLI::IsMember({"x", "y", "z"}))->capture_default_str();
+  cmd->add_option("--up", render.up,
+                  "up axis; auto: y for Houdini files, else the way gravity shows in the velocities (and in the "
+                  "--particles), else z")
+      ->check(CLI::IsMember({"auto", "x", "y", "z"}))->capture_default_str();
   cmd->add_option("--yaw", render.yaw, "camera azimuth around the up axis, degrees")->capture_default_str();
   cmd->add_option("--pitch", render.pitch, "camera elevation, degrees in [-89, 89]")->capture_default_str();
   cmd->add_option("--particles", render.particles,

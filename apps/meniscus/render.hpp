@@ -10,7 +10,7 @@ class App;
 namespace meniscus::cli {
 
 struct RenderArgs {
-  std::string mesh, output, particles, color_by, range, size = "960x720", up = "z", frames;
+  std::string mesh, output, particles, color_by, range, size = "960x720", up = "auto", frames;
   float yaw = 35, pitch = 30;
   int turntable = 1;
   double max_memory_gb = 0;

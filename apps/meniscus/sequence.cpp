@@ -147,8 +147,9 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
   for (; first < candidates.size() && !first_frame; ++first) {
     try {
       const auto t0 = std::chrono::steady_clock::now();
-      ParticleSet particles = read_particles(in.format(candidates[first]), read_options(a));
-      first_frame = ReadFrame{std::move(particles), seconds_since(t0)};
+      ReadReport report;
+      ParticleSet particles = read_particles(in.format(candidates[first]), read_options(a), &report);
+      first_frame = ReadFrame{std::move(particles), seconds_since(t0), report.format};
     } catch (const std::exception& e) {
       if (a.estimates_from)  // a named frame must read: another frame would give other estimates
         throw IoError(fmt::format("--estimates-from {}: {}", *a.estimates_from, e.what()));
@@ -156,6 +157,14 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
   }
   const int estimate_frame = candidates[--first];
   if (first_frame) estimated = resolve_frame_estimates(first_frame->particles, gp);
+  // Every preview of a sequence is drawn with one up axis: the one that frame shows.
+  if (first_frame && preview && a.up == "auto") {
+    const UpAxis up = preview_up_axis(a, first_frame->particles, first_frame->format);
+    a.up = std::string(1, up.name());
+    if (!a.quiet)
+      fmt::print(stderr, "the previews' up axis: {} ({}, on frame {}; --up sets it)\n", up.name(), up.reason,
+                 estimate_frame);
+  }
   // The particles read are surfaced as they are when that frame is one to surface.
   const auto preread_at = std::find(frames.begin(), frames.end(), estimate_frame);
   first = std::size_t(preread_at - frames.begin());

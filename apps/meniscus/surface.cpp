@@ -23,7 +23,7 @@ namespace {
 /// The most frames surfaced at once: each holds a frame's memory, and --max-memory is shared.
 constexpr int kMaxJobs = 256;
 
-void print_summary(const FrameFiles& f, const Result& result) {
+void print_summary(const FrameFiles& f, const Result& result, const std::optional<UpAxis>& preview_up) {
   if (result.stats.spacing_estimated && result.stats.estimated_on.empty())
     fmt::print(stderr, "estimated particle spacing {:.6g} (from the particle distances and density; set --spacing to override)\n",
                result.params.spacing);
@@ -46,6 +46,9 @@ void print_summary(const FrameFiles& f, const Result& result) {
   fmt::print(stderr, "  {}\n", stages);
   fmt::print(stderr, "wrote {}{}{}{}\n", printable(f.output), f.preview.empty() ? "" : ", " + printable(f.preview),
              f.stats.empty() ? "" : ", " + printable(f.stats), f.field.empty() ? "" : ", " + printable(f.field));
+  if (preview_up)
+    fmt::print(stderr, "the preview's up axis: {} ({})\n", preview_up->name(),
+               preview_up->reason == "--up" ? "--up" : preview_up->reason + "; --up sets it");
 }
 
 /// One frame over the ranks of an MPI job (mpirun, srun --mpi=pmix): docs/cluster.md.
@@ -86,8 +89,10 @@ CLI::App* add_surface_command(CLI::App& app, SurfaceArgs& a) {
       ->required()->group(files);
   cmd->add_option("--stats", a.stats_path, "write counts, stage times and the parameters used as JSON")->group(files);
   cmd->add_option("--preview", a.preview_path, "also render a shaded preview picture (.png)")->group(files);
-  cmd->add_option("--up", a.up, "up axis of the preview's camera (SPlisHSPlasH and Houdini scenes are y-up)")
-      ->check(CLI::IsMember({"x", "y", "z"}))->capture_default_str()->group(files);
+  cmd->add_option("--up", a.up,
+                  "up axis of the preview's camera; auto: y for Houdini files, else the way gravity shows in the "
+                  "particles' velocities and heights, else z")
+      ->check(CLI::IsMember({"auto", "x", "y", "z"}))->capture_default_str()->group(files);
   cmd->add_option("--save-field", a.field_path, "also write the distance field as an OpenVDB level set (.vdb)")
       ->group(files);
   cmd->add_option("--columns", a.columns, "column names of headerless text particles (e.g. x,y,z,vx,vy,vz,rho)")
@@ -135,11 +140,19 @@ void add_frame_files(std::vector<RunFile>& files, const FrameFiles& f) {
   files.push_back({f.field, "--save-field", true});
 }
 
+UpAxis preview_up_axis(const SurfaceArgs& a, const ParticleSet& particles, std::string_view format) {
+  if (a.up != "auto") return {a.up[0] - 'x', "--up"};
+  const Attribute* velocity = particles.find("velocity");
+  if (velocity == nullptr) velocity = particles.find("v");
+  return guess_up_axis(particles.positions, velocity, format);
+}
+
 Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, const ProgressFn& progress,
-                   std::optional<ReadFrame> preread) {
+                   std::optional<ReadFrame> preread, UpAxis* preview_up) {
   const auto t0 = std::chrono::steady_clock::now();
   ReadReport report;
   const ParticleSet particles = preread ? std::move(preread->particles) : read_particles(f.input, read_options(a), &report);
+  if (preread) report.format = preread->format;
   const double read_seconds = preread ? preread->seconds : seconds_since(t0);
   if (verbose) {
     fmt::print(stderr, "read {} particles from {} ({})\n", particles.size(), printable(f.input), report.format);
@@ -160,7 +173,9 @@ Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, cons
   if (!f.preview.empty()) {
     const auto t2 = std::chrono::steady_clock::now();
     RenderOptions view;
-    view.up = up_axis(a.up);
+    const UpAxis up = preview_up_axis(a, particles, report.format);
+    view.up = up.direction();
+    if (preview_up) *preview_up = up;
     write_png(f.preview, render_mesh(result.mesh, view));
     result.stats.stages.push_back({"preview", seconds_since(t2)});
   }
@@ -202,9 +217,12 @@ int run_surface(const CLI::App& cmd, SurfaceArgs& a, const MpiSession& mpi) {
   add_frame_files(files, f);
   check_run_files(files);
   ProgressBar bar(!a.quiet);
-  const Result result = surface_one(a, f, !a.quiet, [&](std::string_view stage, double fraction) { bar.update(stage, fraction); });
+  UpAxis preview_up;
+  const Result result = surface_one(
+      a, f, !a.quiet, [&](std::string_view stage, double fraction) { bar.update(stage, fraction); }, std::nullopt,
+      &preview_up);
   bar.finish();
-  if (!a.quiet) print_summary(f, result);
+  if (!a.quiet) print_summary(f, result, f.preview.empty() ? std::nullopt : std::optional<UpAxis>(preview_up));
   return kExitOk;
 }
 

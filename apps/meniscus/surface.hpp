@@ -8,6 +8,7 @@
 #include "meniscus/io.hpp"
 #include "meniscus/params.hpp"
 #include "meniscus/reconstruct.hpp"
+#include "meniscus/render.hpp"
 #include "meniscus/sequence.hpp"
 #include "options.hpp"
 
@@ -20,7 +21,7 @@ namespace meniscus::cli {
 class MpiSession;
 
 struct SurfaceArgs {
-  std::string input, output, stats_path, preview_path, field_path, config_path, frames, up = "z";
+  std::string input, output, stats_path, preview_path, field_path, config_path, frames, up = "auto";
   std::vector<std::string> columns;
   int jobs = 1;
   std::optional<int> estimates_from;  ///< a sequence: the frame the frame-wide estimates are made on
@@ -44,15 +45,20 @@ struct FrameFiles {
 struct ReadFrame {
   ParticleSet particles;
   double seconds = 0;
+  std::string format;  ///< as the reader names it (ReadReport::format)
 };
+
+/// The preview's up axis: --up's, or (auto) what the frame's file and particles show.
+UpAxis preview_up_axis(const SurfaceArgs& a, const ParticleSet& particles, std::string_view format);
 
 /// The read options of a run; `memory_share`: the part of --max-memory one frame may use.
 ReadOptions read_options(const SurfaceArgs& a, double memory_share = 1.0);
 
 /// Reads, surfaces and writes one frame; `verbose` prints the per-frame report. `preread`: the
 /// frame as it was read already (taken over).
+/// `preview_up`, when given and a preview is drawn: the up axis it was drawn with.
 Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, const ProgressFn& progress,
-                   std::optional<ReadFrame> preread = std::nullopt);
+                   std::optional<ReadFrame> preread = std::nullopt, UpAxis* preview_up = nullptr);
 
 /// The run's files of one frame, for check_run_files.
 void add_frame_files(std::vector<struct RunFile>& files, const FrameFiles& f);

@@ -74,6 +74,25 @@ struct RenderOptions {
   void validate() const;
 };
 
+/// The up axis of a scene, and what decided it.
+struct UpAxis {
+  int axis = 2;        ///< 0: x, 1: y, 2: z
+  std::string reason;  ///< in words, for a summary: "the file is a Houdini geometry file, y-up by convention"
+  Vec3f direction() const;
+  char name() const { return char('x' + axis); }
+};
+
+/// Which axis is up in a scene, from what its file says and what its points show:
+/// - `format` (a ReadReport's) names a Houdini geometry file (bgeo, bgeo.sc, partio's bgeo):
+///   y, Houdini's convention;
+/// - otherwise gravity as the points show it: per axis, how clearly the mean `velocity` (a
+///   3-component attribute, or nullptr) points down it (its component against the mean speed)
+///   plus how low the centre of mass sits in the bounding box (below the middle); the axis with
+///   the highest score when it is clear (at least 0.1, and 0.04 above every other axis);
+/// - otherwise z, the default of most simulators outside Houdini and SPlisHSPlasH.
+/// Non-finite points and velocities are skipped. O(points).
+UpAxis guess_up_axis(const std::vector<Vec3f>& points, const Attribute* velocity, std::string_view format);
+
 /// An 8-bit RGB image: `rgb` holds width × height × 3 bytes, row-major, top row first.
 struct Image {
   int width = 0, height = 0;

@@ -5,6 +5,8 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <fmt/format.h>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <tuple>
 
@@ -24,6 +26,51 @@ std::string sample() { return test::data_file("ply/dam_break_frame_9_6859_partic
 
 std::size_t files_in(const std::filesystem::path& dir) {
   return std::size_t(std::distance(std::filesystem::directory_iterator(dir), std::filesystem::directory_iterator{}));
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+TEST(Cli, ThePreviewsUpAxisIsWhatTheFileShowsAndTheSummarySaysSo) {
+  TempDir tmp;
+  struct Case {
+    std::string input, extra;
+    char axis;
+    std::string why;
+  };
+  const std::vector<Case> cases = {
+      // SPlisHSPlasH, y-up: a PLY says nothing, its velocities and heights do.
+      {sample(), "", 'y', "move down y"},
+      // The same frame as Houdini geometry: Houdini's convention.
+      {test::data_file("dam_break_frame_9_6859_particles.bgeo"), "", 'y', "Houdini"},
+      // SPHysics, z-up, at rest: the water settles low along z.
+      {test::data_file("sphysics_dam_break_IPART_29814_particles.txt.gz"), " --columns x,y,z,vx,vy,vz,rho,p,mass", 'z',
+       "settle low along z"},
+  };
+  for (const Case& c : cases) {
+    std::string out;
+    const std::string base = cli() + " surface " + c.input + c.extra + " --preset preview -o " + tmp.file("m.ply");
+    ASSERT_EQ(run_command(base + " --preview " + tmp.file("auto.png"), &out), 0) << out;
+    EXPECT_NE(out.find(fmt::format("the preview's up axis: {} (", c.axis)), std::string::npos) << c.input << out;
+    EXPECT_NE(out.find(c.why), std::string::npos) << c.input << out;
+    std::string given;
+    ASSERT_EQ(run_command(base + " --preview " + tmp.file("given.png") + " --up " + c.axis, &given), 0) << given;
+    EXPECT_NE(given.find(fmt::format("the preview's up axis: {} (--up)", c.axis)), std::string::npos) << given;
+    EXPECT_EQ(slurp(tmp.file("auto.png")), slurp(tmp.file("given.png"))) << c.input;
+    const char other = c.axis == 'z' ? 'y' : 'z';
+    ASSERT_EQ(run_command(base + " --preview " + tmp.file("other.png") + " --up " + other, &given), 0) << given;
+    EXPECT_NE(slurp(tmp.file("auto.png")), slurp(tmp.file("other.png"))) << c.input;
+  }
+  // A sequence's previews share the axis its first frame shows, said once.
+  std::string out;
+  ASSERT_EQ(run_command(cli() + " surface '" + test::data_file("sequence/fluid_####.bgeo.sc") + "' --frames 1-2 -o '" +
+                            tmp.file("s_####.ply") + "' --preview '" + tmp.file("s_####.png") + "' --preset preview",
+                        &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("the previews' up axis: y (the file is Houdini geometry"), std::string::npos) << out;
 }
 
 TEST(Cli, SurfacesARealFrameWithStatsAndPreview) {

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <numbers>
 #include <string>
 #include <utility>
@@ -309,6 +310,81 @@ std::vector<unsigned char> read_bytes(const std::string& path) {
 uint32_t big_endian(const std::vector<unsigned char>& bytes, std::size_t at) {
   return uint32_t(bytes[at]) << 24 | uint32_t(bytes[at + 1]) << 16 | uint32_t(bytes[at + 2]) << 8 |
          uint32_t(bytes[at + 3]);
+}
+
+// --- the up axis ------------------------------------------------------------------------------
+
+/// A pool: a slab `depth` deep along `up` on a floor at 0, `width` wide along the other axes,
+/// and a few droplets above it (a splash), on a lattice of spacing 1.
+std::vector<Vec3f> pool(int up, int width, int depth) {
+  std::vector<Vec3f> points;
+  for (int i = 0; i < width; ++i)
+    for (int j = 0; j < width; ++j)
+      for (int k = 0; k < depth; ++k) {
+        Vec3f p{};
+        p[up] = float(k), p[(up + 1) % 3] = float(i), p[(up + 2) % 3] = float(j);
+        points.push_back(p);
+      }
+  for (int drop = 0; drop < 20; ++drop) {
+    Vec3f p{};
+    p[up] = float(3 * depth + drop), p[(up + 1) % 3] = float(drop % width), p[(up + 2) % 3] = 1;
+    points.push_back(p);
+  }
+  return points;
+}
+
+Attribute velocities(std::size_t n, Vec3f v) {
+  Attribute a{"velocity", 3, false, {}};
+  for (std::size_t i = 0; i < n; ++i) a.values.insert(a.values.end(), {v.x, v.y, v.z});
+  return a;
+}
+
+TEST(UpAxis, HoudiniFilesAreYUpWhateverThePointsShow) {
+  const std::vector<Vec3f> points = pool(2, 10, 3);
+  for (const char* format : {"bgeo", "bgeo (binary JSON)", "bgeo.sc"}) {
+    const UpAxis up = guess_up_axis(points, nullptr, format);
+    EXPECT_EQ(up.axis, 1) << format;
+    EXPECT_NE(up.reason.find("Houdini"), std::string::npos) << up.reason;
+  }
+  EXPECT_EQ(guess_up_axis(points, nullptr, "ply (binary little endian)").axis, 2);
+}
+
+TEST(UpAxis, APoolSettlesLowAlongItsUpAxis) {
+  for (int axis = 0; axis < 3; ++axis) {
+    const UpAxis up = guess_up_axis(pool(axis, 12, 3), nullptr, "csv");
+    EXPECT_EQ(up.axis, axis) << up.reason;
+    EXPECT_NE(up.reason.find("settle low"), std::string::npos) << up.reason;
+    EXPECT_EQ(up.direction()[axis], 1.0f);
+  }
+}
+
+TEST(UpAxis, GravityShowsInTheVelocities) {
+  // A ball of particles with no lower side, falling along -x and drifting along +z.
+  std::vector<Vec3f> ball;
+  for (int i = -5; i <= 5; ++i)
+    for (int j = -5; j <= 5; ++j)
+      for (int k = -5; k <= 5; ++k)
+        if (i * i + j * j + k * k <= 25) ball.push_back({float(i), float(j), float(k)});
+  const Attribute falling = velocities(ball.size(), {-2, 0, 0.5f});
+  const UpAxis up = guess_up_axis(ball, &falling, "vtk");
+  EXPECT_EQ(up.axis, 0) << up.reason;
+  EXPECT_NE(up.reason.find("move down x"), std::string::npos) << up.reason;
+  // Rising, or at rest, a ball shows nothing: the default.
+  const Attribute rising = velocities(ball.size(), {2, 0, 0});
+  EXPECT_EQ(guess_up_axis(ball, &rising, "vtk").axis, 2);
+  const Attribute still = velocities(ball.size(), {0, 0, 0});
+  const UpAxis none = guess_up_axis(ball, &still, "vtk");
+  EXPECT_EQ(none.axis, 2);
+  EXPECT_NE(none.reason.find("default"), std::string::npos) << none.reason;
+}
+
+TEST(UpAxis, NoPointsOrNonFiniteOnesGiveTheDefault) {
+  EXPECT_EQ(guess_up_axis({}, nullptr, "").axis, 2);
+  std::vector<Vec3f> points = pool(1, 10, 3);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  points.push_back({nan, 0, 0});
+  points.push_back({0, std::numeric_limits<float>::infinity(), 0});
+  EXPECT_EQ(guess_up_axis(points, nullptr, "").axis, 1);
 }
 
 TEST(RenderPngTest, WritesPngWithHeaderAndPixels) {

@@ -4,11 +4,13 @@
 #include <fmt/format.h>
 
 #include <exception>
+#include <memory>
 #include <new>
 #include <string>
 #include <vector>
 
 #include "cli.hpp"
+#include "help.hpp"
 #include "info.hpp"
 #include "inspect.hpp"
 #include "io/atomic_file.hpp"
@@ -74,6 +76,7 @@ int main(int argc, char** argv) {
   release_large_blocks_eagerly();  // a lower peak: freed stage arrays leave the process
   reuse_freed_blocks_between_stages();  // except up to the smoothing, where they serve the next stage
   CLI::App app{"meniscus — smooth, watertight meshes from fluid particles (Williams' constrained smoothing)"};
+  app.formatter(std::make_shared<HelpFormatter>());  // before the subcommands, which take it over
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string(version()));
   SurfaceArgs surface;

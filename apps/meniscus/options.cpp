@@ -23,6 +23,7 @@ std::string heading(std::string_view group) {
 
 /// "help — accepts; default X".
 std::string help_text(const ParamSpec& spec) {
+  if (spec.type == ParamType::flag) return std::string(spec.help);  // a flag takes no value
   std::string text = fmt::format("{} — {}", spec.help, accepted_values(spec));
   if (!spec.control && spec.type != ParamType::flag) {
     const nlohmann::json value = get_parameter(Params{}, spec);
@@ -36,20 +37,36 @@ std::string help_text(const ParamSpec& spec) {
 
 }  // namespace
 
-void ParameterOptions::add_to(CLI::App& cmd) {
-  for (const ParamSpec& spec : parameter_table()) {
-    if (spec.option.empty()) continue;
+void ParameterOptions::add_to(CLI::App& cmd, const std::vector<std::string_view>& keys, const std::string& group) {
+  std::vector<const ParamSpec*> specs;
+  if (keys.empty()) {
+    for (const ParamSpec& spec : parameter_table())
+      if (!spec.option.empty() && !added_.count(std::string(spec.key))) specs.push_back(&spec);
+  } else {
+    for (const std::string_view key : keys) specs.push_back(find_parameter(key));
+  }
+  for (const ParamSpec* s : specs) {
+    const ParamSpec& spec = *s;
     const std::string key(spec.key), option(spec.option), help = help_text(spec);
+    added_.insert(key);
     CLI::Option* o = nullptr;
+    // The value's type as the help shows it (the values are kept as text and converted by the
+    // table's rules, so CLI11 would call every one TEXT).
     switch (spec.type) {
       case ParamType::flag: o = cmd.add_flag(option, flags_[key], help); break;
       case ParamType::numbers:
         o = cmd.add_option(option, lists_[key], help)->delimiter(',')->expected(1, int(spec.count));
+        o->type_name(spec.count == 6 ? "X0,Y0,Z0,X1,Y1,Z1" : "NUMBERS");
         break;
-      case ParamType::names: o = cmd.add_option(option, lists_[key], help)->delimiter(','); break;
-      default: o = cmd.add_option(option, texts_[key], help); break;
+      case ParamType::names:
+        o = cmd.add_option(option, lists_[key], help)->delimiter(',');
+        o->type_name("NAME,…");
+        break;
+      case ParamType::integer: o = cmd.add_option(option, texts_[key], help)->type_name("INT"); break;
+      case ParamType::choice: o = cmd.add_option(option, texts_[key], help)->type_name("NAME"); break;
+      case ParamType::number: o = cmd.add_option(option, texts_[key], help)->type_name("NUMBER"); break;
     }
-    o->group(heading(spec.group));
+    o->group(group.empty() ? heading(spec.group) : group);
   }
 }
 

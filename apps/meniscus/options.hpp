@@ -2,7 +2,9 @@
 #pragma once
 
 #include <map>
+#include <set>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -20,7 +22,9 @@ namespace meniscus::cli {
 /// alike and a message names the option as typed.
 class ParameterOptions {
  public:
-  void add_to(CLI::App& cmd);
+  /// Adds the options of the table's keys in `keys` (in that order) under `group`, or, with no
+  /// keys, every other option under its table group's heading, in the table's order.
+  void add_to(CLI::App& cmd, const std::vector<std::string_view>& keys = {}, const std::string& group = "");
   /// The options given, as an object of the table's keys (typed values), for params_from_json.
   nlohmann::json given(const CLI::App& cmd) const;
 
@@ -28,6 +32,7 @@ class ParameterOptions {
   std::map<std::string, std::string> texts_;                // key → the value typed
   std::map<std::string, std::vector<std::string>> lists_;   // boxes and names
   std::map<std::string, bool> flags_;
+  std::set<std::string> added_;  // the keys whose option exists
 };
 
 /// The parameters of a run: a --config file (when given), then the options given on top of it

@@ -80,34 +80,40 @@ int run_surface_ranks(const MpiSession& mpi, const SurfaceArgs& a) {
 
 CLI::App* add_surface_command(CLI::App& app, SurfaceArgs& a) {
   CLI::App* cmd = app.add_subcommand("surface", "surface a particle file (or a sequence of them) into a triangle mesh");
-  const std::string files = "Files";
+  // The help's groups come in the order of their first option: what an artist reaches for first.
+  const std::string common = "Common options";
+  cmd->set_help_flag("-h,--help", "print this help and exit")->group(common);
   cmd->add_option("input", a.input,
                   "particle file, or a sequence pattern with a frame placeholder: fluid_####.ply, fluid_{}.ply, "
                   "fluid_%04d.ply")
-      ->required()->group(files);
+      ->required()->type_name("FILE");
   cmd->add_option("-o,--output", a.output, "mesh file to write (with a frame placeholder for a sequence)")
-      ->required()->group(files);
-  cmd->add_option("--stats", a.stats_path, "write counts, stage times and the parameters used as JSON")->group(files);
-  cmd->add_option("--preview", a.preview_path, "also render a shaded preview picture (.png)")->group(files);
+      ->required()->type_name("FILE")->group(common);
+  a.options.add_to(*cmd, {"preset", "smoothness", "detail", "transfer"}, common);
+  cmd->add_option("--preview", a.preview_path, "also render a shaded preview picture (.png)")->type_name("FILE")
+      ->group(common);
   cmd->add_option("--up", a.up,
                   "up axis of the preview's camera; auto: y for Houdini files, else the way gravity shows in the "
                   "particles' velocities and heights, else z")
-      ->check(CLI::IsMember({"auto", "x", "y", "z"}))->capture_default_str()->group(files);
+      ->check(CLI::IsMember({"auto", "x", "y", "z"}))->type_name("auto|x|y|z")->capture_default_str()->group(common);
+  cmd->add_option("--stats", a.stats_path, "write counts, stage times and the parameters used as JSON")
+      ->type_name("FILE")->group(common);
+  cmd->add_flag("-q,--quiet", a.quiet, "no progress bar and no summary")->group(common);
+  const std::string files = "Files";
   cmd->add_option("--save-field", a.field_path, "also write the distance field as an OpenVDB level set (.vdb)")
-      ->group(files);
+      ->type_name("FILE")->group(files);
   cmd->add_option("--columns", a.columns, "column names of headerless text particles (e.g. x,y,z,vx,vy,vz,rho)")
-      ->delimiter(',')->group(files);
+      ->delimiter(',')->type_name("NAME,…")->group(files);
   cmd->add_flag("--drop-invalid", a.drop_invalid, "drop particles with NaN/Inf coordinates instead of failing")
       ->group(files);
   cmd->add_option("--config", a.config_path, "JSON file of parameters (or a --stats file to replay); options given win")
-      ->group(files);
-  cmd->add_flag("-q,--quiet", a.quiet, "no progress bar and no summary")->group(files);
+      ->type_name("FILE")->group(files);
   const std::string sequence = "Sequences";
   cmd->add_option("--frames", a.frames, "frames of a sequence: 1-240, 1-240:2, 1,5,10-20 (default: every file found)")
-      ->group(sequence);
+      ->type_name("RANGES")->group(sequence);
   cmd->add_option("--jobs", a.jobs, fmt::format("frames of a sequence surfaced at once, 1 to {} (they share "
                                                 "--max-memory)", kMaxJobs))
-      ->capture_default_str()->group(sequence);
+      ->type_name("INT")->capture_default_str()->group(sequence);
   cmd->add_flag("--fail-fast", a.fail_fast, "stop a sequence at the first frame that fails")->group(sequence);
   cmd->add_flag("--skip-existing", a.skip_existing,
                 "leave out the frames whose mesh exists (a resubmitted job redoes only what failed)")
@@ -115,12 +121,18 @@ CLI::App* add_surface_command(CLI::App& app, SurfaceArgs& a) {
   cmd->add_option("--estimates-from", a.estimates_from,
                   "the frame the spacing, rest density and reference speed are estimated on when not given "
                   "(default: the first of --frames; a job array's tasks all name the sequence's first)")
-      ->group(sequence);
+      ->type_name("FRAME")->group(sequence);
   cmd->add_flag("--pieces", a.pieces,
                 "over MPI ranks, -o X.pvtp: each rank writes its piece X_<rank>.vtp and rank 0 the ParaView index "
                 "(meniscus merge X.pvtp -o X.ply welds them)")
       ->group(sequence);
   a.options.add_to(*cmd);
+  cmd->footer(
+      "Examples:\n"
+      "  meniscus surface fluid.ply -o fluid_mesh.ply --preview fluid.png\n"
+      "  meniscus surface 'sim/fluid_####.bgeo.sc' -o 'mesh/fluid_####.bgeo.sc' --frames 1-240 \\\n"
+      "      --spacing 0.05 --preset droplets --transfer v --jobs 2\n"
+      "Every option with its range and default, presets and config files: docs/cli.md");
   return cmd;
 }
 

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 #include <iterator>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <tuple>
 
 #include "meniscus/io.hpp"
@@ -71,6 +72,45 @@ TEST(Cli, ThePreviewsUpAxisIsWhatTheFileShowsAndTheSummarySaysSo) {
             0)
       << out;
   EXPECT_NE(out.find("the previews' up axis: y (the file is Houdini geometry"), std::string::npos) << out;
+}
+
+/// Display width of a UTF-8 line.
+std::size_t columns(const std::string& line) {
+  return std::size_t(std::count_if(line.begin(), line.end(), [](char c) { return (static_cast<unsigned char>(c) & 0xC0) != 0x80; }));
+}
+
+TEST(Cli, HelpIsGroupedWrappedTypedAndEndsWithExamples) {
+  for (const char* command : {"surface", "render", "inspect", "merge", "info"}) {
+    std::string out;
+    ASSERT_EQ(run_command(cli() + " " + command + " --help", &out), 0) << out;
+    std::istringstream lines(out);
+    for (std::string line; std::getline(lines, line);) EXPECT_LE(columns(line), 100u) << command << ": " << line;
+  }
+  std::string help;
+  ASSERT_EQ(run_command(cli() + " surface --help", &help), 0) << help;
+  // The options an artist reaches for first come first, in their own group.
+  const std::size_t common = help.find("Common options:"), next_group = help.find(":\n", common + 16);
+  ASSERT_NE(common, std::string::npos) << help;
+  for (const char* option : {"-o,--output", "--preset", "--smoothness", "--detail", "--transfer", "--preview", "--stats"}) {
+    const std::size_t at = help.find(std::string("  ") + option);
+    EXPECT_GT(at, common) << option;
+    EXPECT_LT(at, next_group) << option << " is not among the common options";
+  }
+  EXPECT_LT(common, help.find("Geometry:"));
+  // Every value is shown by its type, never CLI11's TEXT for a number.
+  EXPECT_EQ(help.find("TEXT"), std::string::npos) << help;
+  for (const char* typed : {"--smoothness NUMBER", "--steps-a INT", "--preset NAME", "--transfer NAME,…",
+                            "--clip-box X0,Y0,Z0,X1,Y1,Z1", "--jobs INT=1", "--up auto|x|y|z=auto"})
+    EXPECT_NE(help.find(typed), std::string::npos) << typed;
+  // Two examples at the end.
+  const std::size_t examples = help.rfind("Examples:");
+  ASSERT_NE(examples, std::string::npos) << help;
+  EXPECT_GT(examples, help.find("--max-memory"));
+  std::size_t shown = 0;
+  for (std::size_t at = help.find("  meniscus surface ", examples); at != std::string::npos;
+       at = help.find("  meniscus surface ", at + 1))
+    ++shown;
+  EXPECT_EQ(shown, 2u) << help.substr(examples);
 }
 
 TEST(Cli, SurfacesARealFrameWithStatsAndPreview) {

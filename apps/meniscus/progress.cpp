@@ -5,10 +5,23 @@
 
 #include <algorithm>
 #include <fmt/format.h>
+#include <string>
 
 namespace meniscus::cli {
 
-ProgressBar::ProgressBar(bool enabled) : active_(enabled && isatty(STDERR_FILENO)) {}
+namespace {
+
+/// "42 s", "3 min 05 s", "1 h 02 min".
+std::string duration_text(double seconds) {
+  const long s = long(seconds + 0.5);
+  if (s < 60) return fmt::format("{} s", s);
+  if (s < 3600) return fmt::format("{} min {:02} s", s / 60, s % 60);
+  return fmt::format("{} h {:02} min", s / 3600, (s % 3600) / 60);
+}
+
+}  // namespace
+
+ProgressBar::ProgressBar(bool enabled, bool eta) : active_(enabled && isatty(STDERR_FILENO)), eta_(eta) {}
 ProgressBar::~ProgressBar() { finish(); }
 
 void ProgressBar::update(std::string_view stage, double fraction) {
@@ -19,8 +32,14 @@ void ProgressBar::update(std::string_view stage, double fraction) {
   stage_ = stage;
   constexpr int kWidth = 30;
   const int filled = std::clamp(int(fraction * kWidth + 0.5), 0, kWidth);
-  fmt::print(stderr, "\r\033[K{:<14} [{}{}] {:3.0f}%", stage, std::string(std::size_t(filled), '#'),
-             std::string(std::size_t(kWidth - filled), '.'), std::clamp(fraction, 0.0, 1.0) * 100);
+  std::string left;
+  const double elapsed = std::chrono::duration<double>(now - start_).count();
+  // Extrapolated once a little of the job is done, so that the first frame's set-up does not
+  // dominate the estimate.
+  if (eta_ && fraction >= 0.01 && fraction < 1 && elapsed >= 0.25)
+    left = fmt::format(", {} left", duration_text(elapsed * (1 - fraction) / fraction));
+  fmt::print(stderr, "\r\033[K{:<14} [{}{}] {:3.0f}%{}", stage, std::string(std::size_t(filled), '#'),
+             std::string(std::size_t(kWidth - filled), '.'), std::clamp(fraction, 0.0, 1.0) * 100, left);
   std::fflush(stderr);
   drawn_ = true;
 }

@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "cli.hpp"
+#include "help.hpp"
 #include "common/clock.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/messages.hpp"
@@ -182,7 +183,7 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
   a.params = estimated;
 
   const auto t0 = std::chrono::steady_clock::now();
-  ProgressBar bar(!a.quiet);
+  ProgressBar bar(!a.quiet, /*eta=*/true);
   std::mutex mutex;  // guards the bar, the report lines and the counters below
   std::vector<int> failed;
   std::size_t done = 0, triangles = 0;
@@ -246,18 +247,24 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
       beyond_cap += f->report.beyond_cap;
       vertices += f->report.count;
     }
-  if (!a.quiet && flicker_count > 0)
-    fmt::print(stderr,
-               "flicker (vertex distance to the previous frame's surface): mean {:.4g} over {} frame pairs, max {:.4g}{}; "
-               "measured in {:.3f}s\n",
-               flicker_sum / double(flicker_count), flicker_count, flicker_max,
-               beyond_cap == 0 ? std::string()
-                               : fmt::format(" (the search's cap of {} spacings: {} of {} vertices were farther and count "
-                                             "at it)",
-                                             kFlickerCapSpacings, beyond_cap, vertices),
-               flicker_seconds);
+  if (!a.quiet && flicker_count > 0) {
+    // In spacings d, the unit every distance of the method is set in, and in the scene's units.
+    const double d = a.params.spacing;
+    const double mean = flicker_sum / double(flicker_count);
+    fmt::print(stderr, "{}\n",
+               wrap_text(fmt::format("change between frames (each vertex's distance to the previous frame's surface; "
+                                     "the water's own motion included): mean {:.3g} d ({:.4g} scene units), max {:.3g} "
+                                     "d, over {} frame pairs{}; measured in {:.3f} s",
+                                     mean / d, mean, flicker_max / d, flicker_count,
+                                     beyond_cap == 0 ? std::string()
+                                                     : fmt::format(" ({} of {} vertices were farther than the search's "
+                                                                   "cap of {} d and count at it)",
+                                                                   beyond_cap, vertices, kFlickerCapSpacings),
+                                     flicker_seconds),
+                         kHelpColumns, kHelpColumns, 2));
+  }
   if (!a.quiet || !failed.empty())
-    fmt::print(stderr, "{} of {} frames surfaced ({} triangles) in {:.2f}s{}{}\n", ok, frames.size(), triangles,
+    fmt::print(stderr, "{} of {} frames surfaced ({} triangles) in {:.2f} s{}{}\n", ok, frames.size(), triangles,
                seconds_since(t0),
                failed.empty() ? ""
                               : fmt::format("; failed: {} (run again with --skip-existing, or --frames {})",

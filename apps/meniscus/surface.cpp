@@ -7,6 +7,7 @@
 #include <chrono>
 
 #include "cli.hpp"
+#include "help.hpp"
 #include "common/clock.hpp"
 #include "io/vdb_export.hpp"
 #include "meniscus/errors.hpp"
@@ -23,27 +24,29 @@ namespace {
 /// The most frames surfaced at once: each holds a frame's memory, and --max-memory is shared.
 constexpr int kMaxJobs = 256;
 
+/// "1 thread", "2 threads"; "1 vertex", "2 vertices".
+std::string count_of(std::size_t n, std::string_view one, std::string_view many) {
+  return fmt::format("{} {}", n, n == 1 ? one : many);
+}
+
 void print_summary(const FrameFiles& f, const Result& result, const std::optional<UpAxis>& preview_up) {
-  if (result.stats.spacing_estimated && result.stats.estimated_on.empty())
-    fmt::print(stderr, "estimated particle spacing {:.6g} (from the particle distances and density; set --spacing to override)\n",
-               result.params.spacing);
   for (const std::string& w : result.stats.warnings) print_warning(w);
   const Stats& s = result.stats;
   std::string stages;
   const SmoothingStats& sm = s.smoothing;
   for (const StageTime& t : s.stages) {
-    stages += fmt::format("{}{} {:.3f}s", stages.empty() ? "" : ", ", t.name, t.seconds);
+    stages += fmt::format("{}{} {:.3f} s", stages.empty() ? "" : ", ", t.name, t.seconds);
     if (t.name == "smooth" && sm.a_sweeps_seconds + sm.b_sweeps_seconds > 0)  // the CPU's split
-      stages += fmt::format(" (set-up {:.3f}s, A {:.3f}s, B {:.3f}s)", sm.setup_seconds, sm.a_sweeps_seconds,
-                            sm.b_sweeps_seconds);
+      stages += fmt::format(" (set-up {:.3f} s, Laplacian sweeps {:.3f} s, bilaplacian sweeps {:.3f} s)",
+                            sm.setup_seconds, sm.a_sweeps_seconds, sm.b_sweeps_seconds);
   }
-  fmt::print(stderr, "{} particles → {} vertices, {} triangles in {:.3f}s on {}, peak memory {}\n", s.particles,
-             s.vertices, s.triangles, s.total_seconds(),
+  fmt::print(stderr, "{} → {}, {} in {:.3f} s on {}, peak memory {}\n", count_of(s.particles, "particle", "particles"),
+             count_of(s.vertices, "vertex", "vertices"), count_of(s.triangles, "triangle", "triangles"), s.total_seconds(),
              s.backend == "cuda" ? std::string("the CUDA device")
-                                 : fmt::format("{} threads{}", s.threads,
-                                               s.threads_from == "--threads" ? "" : " (" + s.threads_from + ")"),
+                                 : count_of(std::size_t(s.threads), "thread", "threads") +
+                                       (s.threads_from == "--threads" ? "" : " (" + s.threads_from + ")"),
              human_bytes(double(s.peak_memory_bytes)));
-  fmt::print(stderr, "  {}\n", stages);
+  fmt::print(stderr, "{}\n", wrap_text("time per stage: " + stages, kHelpColumns - 2, kHelpColumns, 4).insert(0, "  "));
   fmt::print(stderr, "wrote {}{}{}{}\n", printable(f.output), f.preview.empty() ? "" : ", " + printable(f.preview),
              f.stats.empty() ? "" : ", " + printable(f.stats), f.field.empty() ? "" : ", " + printable(f.field));
   if (preview_up)
@@ -170,11 +173,27 @@ Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, cons
     fmt::print(stderr, "read {} particles from {} ({})\n", particles.size(), printable(f.input), report.format);
     if (report.dropped_invalid) fmt::print(stderr, "dropped {} particles with NaN/Inf coordinates\n", report.dropped_invalid);
   }
-  Result result = reconstruct(particles, a.params, progress);
+  // A single frame's frame-wide estimates are made here, before the work, so that the spacing
+  // is told before the progress bar starts (a sequence's come from its first frame: a.params).
+  Params params = a.params;
+  double estimate_seconds = 0;
+  if (a.estimated_on.empty()) {
+    const auto te = std::chrono::steady_clock::now();
+    params = resolve_frame_estimates(particles, a.params);
+    estimate_seconds = seconds_since(te);
+    if (verbose && a.params.spacing == 0)
+      fmt::print(stderr, "estimated particle spacing {:.6g} (from the particle distances and density; --spacing sets it)\n",
+                 params.spacing);
+  }
+  Result result = reconstruct(particles, params, progress);
   result.stats.stages.insert(result.stats.stages.begin(), StageTime{"read", read_seconds});
   if (!a.estimated_on.empty()) {  // a sequence's frame: the estimates come from its first frame
     result.stats.spacing_estimated = true;
     result.stats.estimated_on = a.estimated_on;
+  } else {
+    result.stats.spacing_estimated = a.params.spacing == 0;
+    for (StageTime& t : result.stats.stages)
+      if (t.name == "parameters") t.seconds += estimate_seconds;
   }
 
   for (const std::string* out : {&f.output, &f.preview, &f.stats, &f.field})

@@ -94,7 +94,7 @@ grep -q "more than the .* allowed (90 % of Slurm's grant" starved.out || { cat s
 fed=$(/usr/bin/python3 -c "import json; print(max(400, 3 * json.load(open('local/stats_0001.json'))['peak_memory_bytes'] // 2**20))")
 sbatch --wait --mem="$fed" --cpus-per-task=1 --output=fed.out --wrap "${job[*]} -o fed/mesh.ply" >/dev/null 2>&1 ||
   { cat fed.out; fail "a $fed MB task failed"; }
-grep -q "on 1 threads (SLURM_CPUS_PER_TASK)" fed.out || { cat fed.out; fail "--cpus-per-task=1 was not honoured"; }
+grep -q "on 1 thread (SLURM_CPUS_PER_TASK)" fed.out || { cat fed.out; fail "--cpus-per-task=1 was not honoured"; }
 cmp -s fed/mesh.ply local/mesh_0001.ply || fail "the batch job's mesh differs from the local run's"
 echo "memory: a 40 MB task refused with a message, a $fed MB one ran on 1 thread"
 

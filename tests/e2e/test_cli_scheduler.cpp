@@ -40,7 +40,7 @@ TEST(CliScheduler, ThreadsComeFromSlurmAndTheAffinity) {
   EXPECT_EQ(j["threads"], 1);
   if (std::thread::hardware_concurrency() > 1) {
     EXPECT_EQ(j["threads_from"], "SLURM_CPUS_PER_TASK");
-    EXPECT_NE(out.find("on 1 threads (SLURM_CPUS_PER_TASK)"), std::string::npos) << out;
+    EXPECT_NE(out.find("on 1 thread (SLURM_CPUS_PER_TASK)"), std::string::npos) << out;
   }
   if (run_command("command -v taskset >/dev/null") == 0) {  // a scheduler that binds: the affinity mask
     ASSERT_EQ(run_command("taskset -c 0 " + job, &out), 0) << out;

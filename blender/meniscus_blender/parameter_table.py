@@ -34,7 +34,7 @@ PARAMETERS = {
     'particle_box': {'type': 'numbers', 'default': [], 'help': 'xmin,ymin,zmin,xmax,ymax,zmax: surface only the particles inside this box'},
     'clip_box': {'type': 'numbers', 'default': [], 'help': 'xmin,ymin,zmin,xmax,ymax,zmax: cut the finished surface by this box, open along the cut'},
     'clip_cap': {'type': 'flag', 'default': False, 'help': "close the clip box's cut with the box's faces (the mesh stays watertight)"},
-    'decimate': {'type': 'number', 'default': 0.0, 'min': 0.0, 'min_open': False, 'max': 1.0, 'unit': 'spacings', 'help': 'simplify the mesh while it stays within this many spacings of the full one (e.g. 0.02)', 'zero': 'keep every triangle'},
+    'decimate': {'type': 'number', 'default': 0.0, 'min': 0.0, 'min_open': False, 'max': 1.0, 'unit': 'spacings', 'help': "simplify the mesh: the full surface's points held within this many spacings, the surfaces within 1.25x it anywhere (e.g. 0.02)", 'zero': 'keep every triangle'},
     'transfer': {'type': 'names', 'default': [], 'help': 'particle attributes to carry onto the vertices'},
     'transfer_radius': {'type': 'number', 'default': 0.0, 'min': 0.0, 'min_open': False, 'unit': 'length', 'help': 'radius of the transfer kernel (1 − (r/R)²)³; the nearest particle where none is inside', 'zero': '2 d'},
     'backend': {'type': 'choice', 'default': 'auto', 'choices': ['auto', 'cpu', 'cuda'], 'help': 'where to run: auto (cuda when a device is there), cpu, cuda'},

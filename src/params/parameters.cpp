@@ -145,7 +145,8 @@ const std::vector<Entry>& entries() {
     other("clip_cap", ParamType::flag, "post-processing", "close the clip box's cut with the box's faces (the mesh stays watertight)",
           MENISCUS_MEMBER(clip_cap));
     number("decimate", "post-processing", 0, 1, false, "keep every triangle", "spacings",
-           "simplify the mesh while it stays within this many spacings of the full one (e.g. 0.02)",
+           "simplify the mesh: the full surface's points held within this many spacings, the surfaces within "
+           "1.25x it anywhere (e.g. 0.02)",
            MENISCUS_MEMBER(decimate));
     other("transfer", ParamType::names, "post-processing", "particle attributes to carry onto the vertices",
           MENISCUS_MEMBER(transfer));

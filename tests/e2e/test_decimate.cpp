@@ -205,6 +205,54 @@ TEST(Decimate, RealFramesStayWithinTheBoundClosedAndWhole) {
 }
 
 // Flat water loses most of its triangles; the droplets keep theirs, every one of them.
+/// The largest exact distance to `to` (Embree's closest points, capped at d/4) over a lattice of
+/// points on each of `from`'s triangles: barycentric (i, j, k)/n with i + j + k = n (for n = 4 the
+/// corners, every edge's midpoint and quarter points) and the centroid — where the simplified
+/// surface parts furthest from the full one, between the points the stage holds.
+double farthest_on_triangles(const TriangleMesh& from, const TriangleMesh& to, double cap, int n) {
+  std::vector<Vec3f> points;
+  points.reserve(from.triangles.size() * std::size_t((n + 1) * (n + 2) / 2 + 1));
+  for (const Triangle& t : from.triangles) {
+    const Vec3f a = from.vertices[t[0]], b = from.vertices[t[1]], c = from.vertices[t[2]];
+    points.push_back((a + b + c) / 3.0f);
+    for (int i = 0; i <= n; ++i)
+      for (int j = 0; i + j <= n; ++j) {
+        const float u = float(i) / float(n), v = float(j) / float(n);
+        points.push_back(a * u + b * v + c * (1 - u - v));
+      }
+  }
+  const SurfaceDistanceReport r = distance_to_surface(points, to, cap);
+  return r.beyond_cap > 0 ? INFINITY : r.max;
+}
+
+TEST(Decimate, TheSimplifiedSurfaceIsWithinTheStatedBoundEverywhere) {
+  // docs/cli.md: the points the stage holds (the full mesh's vertices, edge midpoints and
+  // centroids) lie within 0.55·E of the simplified triangle holding them (decimate_error), and
+  // anywhere else the two surfaces stay within kAnywhere·E of each other, both ways: between the
+  // held points, along a new edge or across a fold of the simplified surface, they part further
+  // than at the points, past E itself.
+  constexpr double kAnywhere = 1.25;
+  for (const char* frame : {"ply/dam_break_frame_23_24389_particles.ply", "ply/double_dam_break_frame_26_4732_particles.ply",
+                            "ply/bunny_frame_14_7705_particles.ply", "ply/free_particles_1000_particles.ply"}) {
+    if (test::kSanitized && test::large_for_sanitizers(frame)) continue;
+    Params p;
+    p.backend = Backend::cpu;
+    const ParticleSet ps = read_particles(test::data_file(frame));
+    const Result full = reconstruct(ps, p);
+    p.decimate = 0.02;
+    const Result simple = reconstruct(ps, p);
+    const double d = full.params.spacing;
+    const double anywhere = farthest_on_triangles(simple.mesh, full.mesh, 0.25 * d, 4) / d;
+    EXPECT_LE(anywhere, kAnywhere * p.decimate) << frame << ": the simplified surface " << anywhere << " d off the full one";
+    EXPECT_LE(simple.stats.decimate_error, 0.55 * p.decimate * d) << frame;
+    // The full surface: its held points (vertices, edge midpoints, centroids) and between them.
+    const double held = farthest_on_triangles(full.mesh, simple.mesh, 0.25 * d, 4) / d;
+    EXPECT_LE(held, kAnywhere * p.decimate) << frame << ": a point of the full surface " << held << " d off the simplified one";
+    std::printf("%s: simplified to full %.4f d (%.2f E), full to simplified %.4f d (%.2f E)\n", frame, anywhere,
+                anywhere / p.decimate, held, held / p.decimate);
+  }
+}
+
 TEST(Decimate, FlatPoolLosesMostTrianglesAndEveryDropletStays) {
   const ParticleSet ps = test::wide_splash(8000);
   const Measured m = expect_decimated_within_bound(ps, Params{}, 0.02, "wide splash");

@@ -96,7 +96,7 @@ std::string spelled_setting(std::string_view key, std::string_view value) {
 
 std::string human_bytes(double bytes) {
   if (!std::isfinite(bytes)) return "an unbounded amount";
-  if (bytes < 1000) return fmt::format("{:.0f} bytes", bytes);
+  if (bytes < 1000) return fmt::format("{:.0f} {}", bytes, std::lround(bytes) == 1 ? "byte" : "bytes");
   static constexpr const char* kUnits[] = {"KB", "MB", "GB", "TB", "PB", "EB"};
   int unit = 0;
   double value = bytes / 1000;

@@ -1,4 +1,5 @@
 // meniscus — the CPUs and memory this process is granted (include/meniscus/resources.hpp).
+#include <algorithm>
 #include "meniscus/resources.hpp"
 
 #include "meniscus/messages.hpp"
@@ -120,7 +121,8 @@ Grant granted_memory(const EnvFn& env, const std::string& proc_self_cgroup, cons
 }
 
 Grant memory_limit(double max_memory_gb, const EnvFn& env) {
-  if (max_memory_gb > 0) return {max_memory_gb * 1e9, spelled("max_memory_gb")};
+  // A bound below one byte is held at one byte: rounded to no bytes it would read as "none".
+  if (max_memory_gb > 0) return {std::max(1.0, max_memory_gb * 1e9), spelled("max_memory_gb")};
   constexpr double kShare = 0.9;
   const Grant granted = granted_memory(env);
   return {kShare * granted.amount, fmt::format("90 % of {}", granted.source)};

@@ -377,6 +377,18 @@ TEST(Safety, GzipBombsAndEndlessFilesAreRefusedWithinTheMemoryLimit) {
   expect_refused_within("surface " + d + "zeros.ply.gz -o " + d + "m.ply", 0.15, "inflates past 150 MB");
   expect_refused_within("surface " + d + "members.csv.gz -o " + d + "m.ply", 0.15, "inflates past 150 MB");
   expect_refused_within("surface /dev/zero -o " + d + "m.ply", 0.1, "'/dev/zero' goes on past 100 MB");
+  // A bound that rounds to less than a byte is held at one byte, never read as "no bound".
+  for (const char* tiny : {"1e-12", "1e-300"}) {
+    for (const std::string& input : {d + "zeros.txt.gz", std::string("/dev/zero")}) {
+      const test::Measured r = test::run_measured(meniscus("surface " + input + " -o " + d + "m.ply --max-memory " + tiny));
+      EXPECT_EQ(r.status, 1) << tiny << " " << input << "\n" << r.output;
+      EXPECT_NE(r.output.find("past 1 byte"), std::string::npos) << tiny << " " << input << "\n" << r.output;
+      if (!test::kSanitized) {
+        EXPECT_LE(r.peak_bytes, kFixedOverhead) << tiny << " " << input;
+      }
+      EXPECT_LT(r.seconds, 10) << tiny << " " << input;
+    }
+  }
   EXPECT_TRUE(listing(t.path, false) == (std::vector<std::string>{"members.csv.gz", "zeros.ply.gz", "zeros.txt.gz"}));
 }
 

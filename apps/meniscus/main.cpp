@@ -62,8 +62,13 @@ int report_parse_error(CLI::App& app, const CLI::ParseError& e, int argc, char**
       return kExitUsage;
     }
   }
-  const int code = app.exit(e);
-  return code == 0 ? kExitOk : kExitUsage;  // --help is not an error; every bad option is
+  // --help and --version print what they ask for; every other parse error is one message with
+  // the prefix and its quoted arguments escaped (a file name picked up by a glob may hold ESC).
+  if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e) == 0 ? kExitOk : kExitUsage;
+  const CLI::App* help_of = active != nullptr ? active : &app;
+  print_error(fmt::format("{} (meniscus{}{} --help lists the options)", e.what(), help_of == &app ? "" : " ",
+                          help_of == &app ? "" : help_of->get_name()));
+  return kExitUsage;
 }
 
 }  // namespace

@@ -449,6 +449,25 @@ TEST(Safety, BytesQuotedFromAFileCannotDriveTheTerminal) {
   EXPECT_NE(r.output.find("\\x1b[2J"), std::string::npos) << r.output;
 }
 
+TEST(Safety, ArgumentsQuotedInUsageErrorsCannotDriveTheTerminalAndCarryThePrefix) {
+  TempDir t;
+  // A file name picked up by a glob, an option's value, an unknown command: each quoted escaped,
+  // each one line behind the program's prefix, exit 2.
+  const std::string evil = "'" + t.file("a\x1b[2J\x1b]0;owned\x07.ply") + "'";
+  for (const std::string& args :
+       {"surface " + small_frame() + " " + evil + " -o " + t.file("m.ply"),
+        "surface " + small_frame() + " -o " + t.file("m.ply") + " --jobs '\x1b]0;owned\x07'",
+        "surface " + small_frame() + " -o " + t.file("m.ply") + " --frames",
+        std::string("surfac\x1b[2J"), std::string("")}) {
+    const test::Measured r = test::run_measured(meniscus(args));
+    EXPECT_EQ(r.status, 2) << args << "\n" << r.output;
+    EXPECT_EQ(r.output.find('\x1b'), std::string::npos) << "a raw ESC reached the terminal: " << args;
+    EXPECT_EQ(r.output.find('\x07'), std::string::npos) << args;
+    EXPECT_EQ(r.output.rfind("meniscus: error: ", 0), 0u) << args << "\n" << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << args << "\n" << r.output;
+  }
+}
+
 TEST(Safety, MessagesNameTheCliOptionsAndReadAsPlainNumbers) {
   TempDir t;
   const std::string d = t.path.string() + "/";

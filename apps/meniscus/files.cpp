@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <climits>
 #include <filesystem>
 #include <map>
 #include <system_error>
@@ -22,6 +23,8 @@ namespace meniscus::cli {
 
 namespace {
 
+std::string quoted(const RunFile& f) { return fmt::format("{} '{}'", f.role, printable(f.path)); }
+
 struct Identity {
   std::string path;  // absolute, symlinks followed, normalised
   bool regular = false, exists = false;
@@ -29,9 +32,17 @@ struct Identity {
   ino_t inode = 0;
 };
 
-Identity identify(const std::string& given) {
+Identity identify(const RunFile& f) {
+  const std::string& given = f.path;
   Identity id;
-  const std::string followed = io::follow_symlinks(given);
+  std::string followed;
+  try {
+    followed = io::follow_symlinks(given);
+  } catch (const IoError&) {  // a loop of links: an output is a bad option, an input bad input
+    if (f.output)
+      throw InvalidParameter(fmt::format("{} cannot be written: its symbolic links make a loop", quoted(f)));
+    throw IoError(fmt::format("cannot read {}: its symbolic links make a loop", quoted(f)));
+  }
   std::error_code ec;
   std::filesystem::path p = std::filesystem::absolute(followed, ec);
   if (!ec) p = std::filesystem::weakly_canonical(p, ec);
@@ -46,8 +57,6 @@ Identity identify(const std::string& given) {
   return id;
 }
 
-std::string quoted(const RunFile& f) { return fmt::format("{} '{}'", f.role, printable(f.path)); }
-
 /// An output must be writable: not a folder, in a folder that exists (or can be made) and takes
 /// new files.
 void check_writable(const RunFile& f, const Identity& id) {
@@ -57,6 +66,19 @@ void check_writable(const RunFile& f, const Identity& id) {
       throw InvalidParameter(fmt::format("{} is a folder: give a file name", quoted(f)));
     return;  // a device or pipe, written in place
   }
+  // The names the final rename will make, checked now rather than after the work.
+  const std::string name = std::filesystem::path(id.path).filename().string();
+  if (name.size() > NAME_MAX)
+    throw InvalidParameter(fmt::format("{} cannot be written: its name is {} bytes long, more than the {} a file name "
+                                       "may have", quoted(f), name.size(), NAME_MAX));
+  if (id.path.size() >= PATH_MAX)
+    throw InvalidParameter(fmt::format("{} cannot be written: its path is {} bytes long, more than the {} a path may "
+                                       "have", quoted(f), id.path.size(), PATH_MAX - 1));
+  // Like cp without -f: a file that exists and that this user may not write is not replaced
+  // (root may, as with cp).
+  if (id.exists && ::access(id.path.c_str(), W_OK) != 0 && errno == EACCES)
+    throw InvalidParameter(fmt::format("{} is read-only for you: meniscus does not replace it (make it writable, or "
+                                       "choose another name)", quoted(f)));
   std::filesystem::path dir = std::filesystem::path(id.path).parent_path();
   std::error_code ec;
   while (!dir.empty() && !std::filesystem::exists(dir, ec) && dir != dir.root_path()) dir = dir.parent_path();
@@ -76,7 +98,7 @@ void check_run_files(const std::vector<RunFile>& files) {
   for (std::size_t i = 0; i < files.size(); ++i) {
     const RunFile& f = files[i];
     if (f.path.empty()) continue;
-    const Identity id = identify(f.path);
+    const Identity id = identify(f);
     if (f.output) check_writable(f, id);
     // Devices and pipes (/dev/null, /dev/stdout) may serve several roles: nothing on them is lost.
     if (id.exists && !id.regular) continue;

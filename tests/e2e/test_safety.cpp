@@ -179,6 +179,54 @@ TEST(Safety, OutputsAreWrittenThroughSymlinksWhichStay) {
             (std::vector<std::string>{"field.vdb", "mesh.ply", "stats.json", "view.png"}));
 }
 
+TEST(Safety, OutputsThatCannotBeMadeAreRefusedBeforeTheWork) {
+  TempDir t;
+  const std::string d = t.path.string() + "/";
+  fs::create_symlink("loop_b.ply", t.path / "loop_a.ply");
+  fs::create_symlink("loop_a.ply", t.path / "loop_b.ply");
+  struct Case {
+    std::string args;
+    int status;
+    std::string says;
+  };
+  const std::vector<Case> cases = {
+      // A name longer than a file name may be: found now, not at the rename after the work.
+      {"surface " + small_frame() + " -o " + d + std::string(300, 'm') + ".ply", 2, "more than the 255 a file name may have"},
+      {"surface " + small_frame() + " -o " + d + "m.ply --stats " + d + std::string(300, 's') + ".json", 2,
+       "more than the 255"},
+      // A loop of links: as an output a bad option, as the input bad input that is read, not written.
+      {"surface " + small_frame() + " -o " + d + "loop_a.ply", 2, "-o '" + d + "loop_a.ply' cannot be written: its symbolic links make a loop"},
+      {"surface " + d + "loop_a.ply -o " + d + "m.ply", 1, "cannot read the input '" + d + "loop_a.ply': its symbolic links make a loop"},
+  };
+  for (const Case& c : cases) {
+    const test::Measured r = test::run_measured(meniscus(c.args + " -q"));
+    EXPECT_EQ(r.status, c.status) << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find(c.says), std::string::npos) << c.args << "\n" << r.output;
+    EXPECT_LT(r.seconds, 2) << "refused before the work: " << c.args;
+  }
+  EXPECT_EQ(listing(t.path, true), (std::vector<std::string>{"loop_a.ply", "loop_b.ply"}));
+}
+
+TEST(Safety, AReadOnlyOutputIsNotReplacedForAUserWhoCannotWriteIt) {
+  TempDir t;
+  fs::permissions(t.path, fs::perms::all);  // the other user below works in it
+  fs::copy_file(small_frame(), t.path / "in.ply");
+  spit(t.path / "kept.ply", "mine");
+  fs::permissions(t.path / "kept.ply", fs::perms::owner_read | fs::perms::group_read | fs::perms::others_read);
+  // As root, as another user (cp refuses such a file to anyone but root).
+  std::string as_user;
+  if (::geteuid() == 0) {
+    as_user = "setpriv --reuid=65534 --regid=65534 --clear-groups ";
+    if (test::run_command(as_user + test::cli() + " --version >/dev/null 2>&1") != 0)
+      GTEST_SKIP() << "SKIPPED: no other user can run " << test::cli() << " here (setpriv, or the folders' permissions)";
+  }
+  const test::Measured r = test::run_measured(as_user + test::cli() + " surface " + t.file("in.ply") + " -q -o " +
+                                              t.file("kept.ply"));
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("is read-only for you: meniscus does not replace it"), std::string::npos) << r.output;
+  EXPECT_EQ(slurp(t.path / "kept.ply"), "mine");
+}
+
 TEST(Safety, DevicesAndPipesAreWrittenInPlace) {
   const bool link_before = fs::is_symlink("/dev/stdout");
   const test::Measured r =

@@ -29,6 +29,8 @@
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
 #include "meniscus/messages.hpp"
+#include "meniscus/resources.hpp"
+#include "meniscus/messages.hpp"
 #include "meniscus/parameters.hpp"
 #include "meniscus/reconstruct.hpp"
 
@@ -92,12 +94,39 @@ std::string shape_string(const py::array& a) {
 
 using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
 
-/// An N × 3 array-like as xyz triples (float64 and integer inputs are converted to float32).
-std::vector<meniscus::Vec3f> vec3_from_python(const py::handle& object, const char* what) {
-  const FloatArray a = FloatArray::ensure(object);
+/// `object` as a NumPy array as it is (a view of a NumPy array or a memory map, no copy), which
+/// must hold numbers: a float or integer dtype. Booleans, strings, objects and complex numbers
+/// are refused (TypeError naming the argument) rather than converted.
+py::array numeric_array(const py::handle& object, const std::string& what) {
+  const py::array a = py::array::ensure(object);
+  if (!a) throw py::type_error(fmt::format("{} must be an array of numbers", what));
+  const char kind = a.dtype().kind();
+  if (kind != 'f' && kind != 'i' && kind != 'u')
+    throw py::type_error(fmt::format("{} must hold numbers (float or integer), got dtype {}", what,
+                                     std::string(py::str(a.dtype()))));
+  return a;
+}
+
+/// Refuses (ResourceError → MemoryError) input whose copies into the library's layout would
+/// take more than `limit` bytes (memory_limit of max_memory_gb), before anything is copied.
+void check_input_bytes(double bytes, const meniscus::Grant& limit, const std::string& what) {
+  if (bytes > limit.amount)
+    throw meniscus::ResourceError(fmt::format("{}: copying it into the library's layout would take {}, more than the {} "
+                                              "allowed ({})",
+                                              what, meniscus::human_bytes(bytes), meniscus::human_bytes(limit.amount),
+                                              limit.source));
+}
+
+/// An N × 3 array-like as xyz triples (float64 and integer inputs are converted to float32),
+/// refused before any copy when the copies would pass `limit`.
+std::vector<meniscus::Vec3f> vec3_from_python(const py::handle& object, const char* what, const meniscus::Grant& limit) {
+  const py::array original = numeric_array(object, what);
+  if (original.ndim() != 2 || original.shape(1) != 3)
+    throw py::value_error(fmt::format("{} must be an N×3 array, got shape {}", what, shape_string(original)));
+  // The float32 conversion (when the array is not one already) and the triples.
+  check_input_bytes(double(original.shape(0)) * 3 * (sizeof(float) + sizeof(float)), limit, what);
+  const FloatArray a = FloatArray::ensure(original);
   if (!a) throw py::type_error(fmt::format("{} must be an N×3 array of numbers", what));
-  if (a.ndim() != 2 || a.shape(1) != 3)
-    throw py::value_error(fmt::format("{} must be an N×3 array, got shape {}", what, shape_string(a)));
   std::vector<meniscus::Vec3f> out(std::size_t(a.shape(0)));
   const float* xyz = a.data();
   for (std::size_t i = 0; i < out.size(); ++i) out[i] = {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
@@ -106,7 +135,8 @@ std::vector<meniscus::Vec3f> vec3_from_python(const py::handle& object, const ch
 
 /// name → (n,) or (n, k) arrays as library attributes; integer and boolean arrays are flagged
 /// `integer` so that writers restore the type.
-std::vector<meniscus::Attribute> attributes_from_python(const py::handle& object, std::size_t n, const char* what) {
+std::vector<meniscus::Attribute> attributes_from_python(const py::handle& object, std::size_t n, const char* what,
+                                                        const meniscus::Grant& limit) {
   std::vector<meniscus::Attribute> out;
   if (object.is_none()) return out;
   if (!py::isinstance<py::dict>(object)) throw py::type_error(fmt::format("{} must be a dict of arrays", what));
@@ -114,9 +144,14 @@ std::vector<meniscus::Attribute> attributes_from_python(const py::handle& object
     meniscus::Attribute a;
     a.name = py::str(key);
     const py::array original = py::array::ensure(value);
-    const FloatArray values = FloatArray::ensure(value);
-    if (!original || !values)
-      throw py::type_error(fmt::format("{} '{}' must be an array of numbers", what, a.name));
+    if (!original) throw py::type_error(fmt::format("{} '{}' must be an array of numbers", what, a.name));
+    const char dtype_kind = original.dtype().kind();
+    if (dtype_kind != 'f' && dtype_kind != 'i' && dtype_kind != 'u' && dtype_kind != 'b')  // flags may be booleans
+      throw py::type_error(fmt::format("{} '{}' must hold numbers, got dtype {}", what, a.name,
+                                       std::string(py::str(original.dtype()))));
+    check_input_bytes(double(original.size()) * 2 * sizeof(float), limit, fmt::format("{} '{}'", what, a.name));
+    const FloatArray values = FloatArray::ensure(original);
+    if (!values) throw py::type_error(fmt::format("{} '{}' must be an array of numbers", what, a.name));
     if (values.ndim() < 1 || values.ndim() > 2 || std::size_t(values.shape(0)) != n ||
         (values.ndim() == 2 && values.shape(1) < 1))
       throw py::value_error(fmt::format("{} '{}' must have shape ({},) or ({}, k), got {}", what, a.name, n, n,
@@ -175,10 +210,11 @@ struct CallbackRaised {};
 
 py::dict reconstruct(const py::handle& positions, const py::handle& attributes, const py::dict& kwargs,
                      const py::object& progress) {
-  meniscus::ParticleSet particles;
-  particles.positions = vec3_from_python(positions, "positions");
-  particles.attributes = attributes_from_python(attributes, particles.size(), "particle attribute");
   const meniscus::Params params = params_from_python(kwargs);
+  const meniscus::Grant limit = meniscus::memory_limit(params.max_memory_gb);
+  meniscus::ParticleSet particles;
+  particles.positions = vec3_from_python(positions, "positions", limit);
+  particles.attributes = attributes_from_python(attributes, particles.size(), "particle attribute", limit);
 
   std::optional<py::error_already_set> pending;
   const meniscus::ProgressFn on_progress = [&](std::string_view stage, double fraction) {
@@ -236,9 +272,10 @@ py::dict read_mesh(const std::string& path) {
 void write_mesh(const std::string& path, const py::handle& vertices, const py::handle& triangles,
                 const py::handle& normals, const py::handle& attributes) {
   meniscus::TriangleMesh mesh;
-  mesh.vertices = vec3_from_python(vertices, "vertices");
-  if (!normals.is_none()) mesh.normals = vec3_from_python(normals, "normals");
-  mesh.attributes = attributes_from_python(attributes, mesh.vertices.size(), "mesh attribute");
+  const meniscus::Grant limit = meniscus::memory_limit(0);
+  mesh.vertices = vec3_from_python(vertices, "vertices", limit);
+  if (!normals.is_none()) mesh.normals = vec3_from_python(normals, "normals", limit);
+  mesh.attributes = attributes_from_python(attributes, mesh.vertices.size(), "mesh attribute", limit);
 
   const py::array indices = py::array::ensure(triangles);
   if (!indices || (indices.dtype().kind() != 'i' && indices.dtype().kind() != 'u'))
@@ -264,7 +301,7 @@ void write_mesh(const std::string& path, const py::handle& vertices, const py::h
 
 double estimate_spacing(const py::handle& positions) {
   meniscus::ParticleSet particles;
-  particles.positions = vec3_from_python(positions, "positions");
+  particles.positions = vec3_from_python(positions, "positions", meniscus::memory_limit(0));
   py::gil_scoped_release released;
   return meniscus::estimate_spacing(particles);
 }

@@ -152,6 +152,34 @@ def test_too_much_memory_is_a_memory_error_with_the_clis_message(cli, tmp_path):
     assert "max_memory_gb" in str(error.value)
 
 
+def test_huge_input_arrays_are_refused_before_they_are_copied():
+    # 10⁹ particles as a view of 24 bytes (a memory map or a broadcast view costs no memory until
+    # it is copied): refused from their size alone, at once, with no copy made.
+    import resource
+    import time
+    huge = np.broadcast_to(np.zeros(3), (10**9, 3))
+    rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    start = time.monotonic()
+    with pytest.raises(MemoryError, match=r"positions: copying it into the library's layout would take 24.0 GB"):
+        meniscus.reconstruct(huge, max_memory_gb=1)
+    with pytest.raises(MemoryError, match=r"particle attribute 'v'"):
+        meniscus.reconstruct(lattice_block((3, 3, 3)), {"v": np.broadcast_to(np.zeros(1), (27, 10**8))}, max_memory_gb=1)
+    assert time.monotonic() - start < 5
+    assert (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - rss_before) * 1024 < 100e6
+
+
+def test_positions_that_are_not_numbers_are_refused_by_name():
+    block = lattice_block((3, 3, 3))
+    for bad in (block > 0.1, block.astype(complex), block.astype(str), block.astype(object)):
+        with pytest.raises(TypeError, match=f"positions must hold numbers \\(float or integer\\), got dtype {bad.dtype}"):
+            meniscus.reconstruct(bad)
+    with pytest.raises(TypeError, match="particle attribute 'v' must hold numbers"):
+        meniscus.reconstruct(block, {"v": block.astype(str)})
+    # Integers are numbers; booleans are welcome as an attribute (a flag).
+    mesh = meniscus.reconstruct((block * 10).astype(np.int32), {"wet": block[:, 0] > 0.1}, spacing=1, transfer=["wet"])
+    assert len(mesh.vertices) > 0
+
+
 def test_truncated_file_is_a_format_error_with_the_byte_offset(cli, data, tmp_path):
     source = (data / "ply/fluid_250_particles.ply").read_bytes()
     truncated = tmp_path / "truncated.ply"

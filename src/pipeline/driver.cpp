@@ -169,6 +169,35 @@ void post_process(const StagePlan& plan, const ParticleSet& particles, Result& r
   }
 }
 
+/// Where a frame is computed about: the origin, or for a frame far from it (its farthest
+/// coordinate more than kFarExtents times its own extent away) a point in its middle, on a grid
+/// of a power of two at least its extent, so that the frames of a sequence share it unless the
+/// fluid crosses a cell. Far from the origin, single precision has too few bits left for the
+/// surface's detail (degenerate triangles) and the grids' axes too little range; about a local
+/// origin the frame keeps the precision of its own size. A frame near the origin keeps it: its
+/// mesh is unchanged bit for bit.
+struct LocalOrigin {
+  double x = 0, y = 0, z = 0;
+  bool shifted() const { return x != 0 || y != 0 || z != 0; }
+};
+
+LocalOrigin local_origin(const ParticleSet& particles) {
+  constexpr double kFarExtents = 16;
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (const Vec3f& p : particles.positions)
+    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], double(p[a])), hi[a] = std::max(hi[a], double(p[a]));
+  if (particles.size() == 0) return {};
+  double extent = 0, farthest = 0;
+  for (int a = 0; a < 3; ++a) {
+    extent = std::max(extent, hi[a] - lo[a]);
+    farthest = std::max({farthest, std::abs(lo[a]), std::abs(hi[a])});
+  }
+  if (!(farthest > kFarExtents * extent) || !std::isfinite(farthest)) return {};
+  const double cell = std::exp2(std::ceil(std::log2(std::max(extent, 1e-30))));
+  const auto middle = [&](int a) { return std::round((lo[a] + hi[a]) / 2 / cell) * cell; };
+  return {middle(0), middle(1), middle(2)};
+}
+
 }  // namespace
 
 Result reconstruct(const ParticleSet& all_particles, const Params& params, const ProgressFn& progress) {
@@ -182,7 +211,17 @@ Result reconstruct(const ParticleSet& all_particles, const Params& params, const
     if (boxed.size() == 0 && all_particles.size() > 0)
       throw InvalidParameter(fmt::format("particle_box: all {} particles are outside the box", all_particles.size()));
   }
-  const ParticleSet& particles = params.particle_box.empty() ? all_particles : boxed;
+  const ParticleSet& given_particles = params.particle_box.empty() ? all_particles : boxed;
+  // A frame far from the origin is computed about a local one (and its clip box with it) and
+  // written back where it was.
+  const LocalOrigin origin = local_origin(given_particles);
+  ParticleSet local;
+  if (origin.shifted()) {
+    local = given_particles;
+    for (Vec3f& x : local.positions)
+      x = Vec3f{float(double(x.x) - origin.x), float(double(x.y) - origin.y), float(double(x.z) - origin.z)};
+  }
+  const ParticleSet& particles = origin.shifted() ? local : given_particles;
   Result result;
   Stats& stats = result.stats;
   stats.particles_outside_box = outside;
@@ -191,6 +230,8 @@ Result reconstruct(const ParticleSet& all_particles, const Params& params, const
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(cpus.amount));
   Params given = params;
   given.threads = int(cpus.amount);
+  if (origin.shifted() && given.clip_box.size() == 6)
+    for (int k = 0; k < 6; ++k) given.clip_box[std::size_t(k)] -= k % 3 == 0 ? origin.x : (k % 3 == 1 ? origin.y : origin.z);
   stats.threads_from = cpus.source;
   const Grant memory = memory_limit(given.max_memory_gb);
   given.max_memory_gb = memory.amount / 1e9;
@@ -212,6 +253,30 @@ Result reconstruct(const ParticleSet& all_particles, const Params& params, const
     run_stages(plan, *make_cpu_stages(in, stats, progress), result.mesh);
   }
   post_process(plan, particles, result, progress);
+  if (origin.shifted()) {
+    for (Vec3f& v : result.mesh.vertices)
+      v = Vec3f{float(double(v.x) + origin.x), float(double(v.y) + origin.y), float(double(v.z) + origin.z)};
+    result.params.clip_box = params.clip_box;
+    // Written back where it was, the mesh is rounded to the single-precision coordinates there:
+    // said when they are coarse against the spacing, with the triangles the rounding flattened.
+    const double farthest = std::max({std::abs(origin.x), std::abs(origin.y), std::abs(origin.z)});
+    const double step = farthest * std::ldexp(1.0, -23);  // a float's spacing there, within a factor 2
+    if (step > 0.005 * p.spacing) {
+      std::size_t flat = 0;
+      for (const Triangle& t : result.mesh.triangles) {
+        const Vec3f a = result.mesh.vertices[t[0]], b = result.mesh.vertices[t[1]], c = result.mesh.vertices[t[2]];
+        const Vec3f e0 = b - a, e1 = c - a;
+        const double longest = std::max({double(length(e0)), double(length(e1)), double(length(c - b))});
+        if (double(length(cross(e0, e1))) <= 1e-6 * longest * longest) ++flat;
+      }
+      stats.warnings.push_back(fmt::format(
+          "the particles lie about {:.3g} from the origin, where single-precision coordinates are {:.2g} spacings "
+          "apart: the frame was surfaced about a local origin, but the mesh is written back in single precision "
+          "there{} (move the scene nearer the origin for full precision)",
+          farthest, step / p.spacing,
+          flat == 0 ? std::string() : fmt::format(", which flattens {} of its triangles", flat)));
+    }
+  }
   stats.vertices = result.mesh.vertices.size();
   stats.triangles = result.mesh.triangles.size();
   stats.peak_memory_bytes = peak_resident_bytes();

@@ -1,6 +1,8 @@
 // meniscus — the one entry point every front end calls.
 #pragma once
 
+#include <array>
+
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -88,7 +90,20 @@ struct Result {
 /// Surfaces the particles: hash grid → sparse distance field → extraction → weld → constrained
 /// smoothing → erosion → attribute transfer → normals. Throws InvalidParameter for bad
 /// parameters, ResourceError when the job would not fit in memory.
+/// A frame far from the origin (its farthest coordinate more than 16 times its extent away) is
+/// computed about local_origin(particles) and its mesh written back where it was (docs/cli.md
+/// "Far from the origin").
 Result reconstruct(const ParticleSet& particles, const Params& params, const ProgressFn& progress = {});
+
+/// The point reconstruct() computes a frame about: {0, 0, 0} for a frame near the origin (its
+/// farthest coordinate within 16 times its extent), else the middle of its bounding box rounded
+/// to a grid of the power of two at least its extent. `lo`, `hi`: the frame's bounding box.
+std::array<double, 3> local_origin(const std::array<double, 3>& lo, const std::array<double, 3>& hi);
+
+/// reconstruct() about a given origin: a part of a frame (an MPI rank's slab) is computed about
+/// the whole frame's local_origin, so that every part rounds as the whole frame would.
+Result reconstruct_about(const ParticleSet& particles, const Params& params, const std::array<double, 3>& origin,
+                         const ProgressFn& progress = {});
 
 /// Fills in every derived (zero) parameter of `params` for these particles: spacing
 /// (estimate_spacing), voxel size, radii, transfer radius, threads; then validates.

@@ -169,38 +169,49 @@ void post_process(const StagePlan& plan, const ParticleSet& particles, Result& r
   }
 }
 
-/// Where a frame is computed about: the origin, or for a frame far from it (its farthest
-/// coordinate more than kFarExtents times its own extent away) a point in its middle, on a grid
-/// of a power of two at least its extent, so that the frames of a sequence share it unless the
-/// fluid crosses a cell. Far from the origin, single precision has too few bits left for the
-/// surface's detail (degenerate triangles) and the grids' axes too little range; about a local
-/// origin the frame keeps the precision of its own size. A frame near the origin keeps it: its
-/// mesh is unchanged bit for bit.
-struct LocalOrigin {
-  double x = 0, y = 0, z = 0;
-  bool shifted() const { return x != 0 || y != 0 || z != 0; }
-};
-
-LocalOrigin local_origin(const ParticleSet& particles) {
-  constexpr double kFarExtents = 16;
-  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+/// The bounding box of the particles (empty: lo > hi).
+std::pair<std::array<double, 3>, std::array<double, 3>> bounds_of(const ParticleSet& particles) {
+  std::array<double, 3> lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
   for (const Vec3f& p : particles.positions)
     for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], double(p[a])), hi[a] = std::max(hi[a], double(p[a]));
-  if (particles.size() == 0) return {};
+  return {lo, hi};
+}
+
+}  // namespace
+
+std::array<double, 3> local_origin(const std::array<double, 3>& lo, const std::array<double, 3>& hi) {
+  // Far from the origin, single precision has too few bits left for the surface's detail and the
+  // grids' axes too little range; about a point in the frame's middle it keeps the precision of
+  // its own size. The point sits on a grid of a power of two at least the frame's extent, so that
+  // the frames of a sequence share it unless the fluid crosses a cell.
+  constexpr double kFarExtents = 16;
   double extent = 0, farthest = 0;
   for (int a = 0; a < 3; ++a) {
+    if (!(lo[a] <= hi[a])) return {};  // no particles
     extent = std::max(extent, hi[a] - lo[a]);
     farthest = std::max({farthest, std::abs(lo[a]), std::abs(hi[a])});
   }
   if (!(farthest > kFarExtents * extent) || !std::isfinite(farthest)) return {};
   const double cell = std::exp2(std::ceil(std::log2(std::max(extent, 1e-30))));
-  const auto middle = [&](int a) { return std::round((lo[a] + hi[a]) / 2 / cell) * cell; };
-  return {middle(0), middle(1), middle(2)};
+  std::array<double, 3> origin{};
+  for (int a = 0; a < 3; ++a) origin[a] = std::round((lo[a] + hi[a]) / 2 / cell) * cell;
+  return origin;
 }
 
-}  // namespace
-
 Result reconstruct(const ParticleSet& all_particles, const Params& params, const ProgressFn& progress) {
+  if (params.particle_box.empty()) {
+    const auto [lo, hi] = bounds_of(all_particles);
+    return reconstruct_about(all_particles, params, local_origin(lo, hi), progress);
+  }
+  params.validate();
+  ParticleSet boxed = all_particles;
+  keep_particles_in_box(boxed, params.particle_box);
+  const auto [lo, hi] = bounds_of(boxed);
+  return reconstruct_about(all_particles, params, local_origin(lo, hi), progress);
+}
+
+Result reconstruct_about(const ParticleSet& all_particles, const Params& params, const std::array<double, 3>& o,
+                         const ProgressFn& progress) {
   // --particle-box: the particles outside are ignored before anything else.
   ParticleSet boxed;
   std::size_t outside = 0;
@@ -214,7 +225,10 @@ Result reconstruct(const ParticleSet& all_particles, const Params& params, const
   const ParticleSet& given_particles = params.particle_box.empty() ? all_particles : boxed;
   // A frame far from the origin is computed about a local one (and its clip box with it) and
   // written back where it was.
-  const LocalOrigin origin = local_origin(given_particles);
+  const struct {
+    double x, y, z;
+    bool shifted() const { return x != 0 || y != 0 || z != 0; }
+  } origin{o[0], o[1], o[2]};
   ParticleSet local;
   if (origin.shifted()) {
     local = given_particles;

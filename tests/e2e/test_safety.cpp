@@ -357,6 +357,24 @@ TEST(Safety, GzipBombsAndEndlessFilesAreRefusedWithinTheMemoryLimit) {
   EXPECT_TRUE(listing(t.path, false) == (std::vector<std::string>{"members.csv.gz", "zeros.ply.gz", "zeros.txt.gz"}));
 }
 
+// Binary JSON (.bgeo) with a uniform int8 array of 200 MB: a byte of the file that would become
+// a double. Skipped (under a key the reader ignores) it is never decoded; kept (a point
+// attribute's values) it is refused before it is, at the limit.
+TEST(Safety, BinaryJsonArraysAreSkippedUndecodedAndDecodedWithinTheLimit) {
+  TempDir t;
+  const std::string d = t.path.string() + "/";
+  const auto key = [](const std::string& s) { return "\x27" + std::string(1, char(s.size())) + s; };
+  const std::string array = std::string("\x40\x11\xF4", 3) + std::string("\x00\x00\x80\x0C", 4);  // 200 MiB of int8
+  write_gzip_bomb(t.path / "skipped.bgeo.gz", std::string("\x7FNSJb[", 6) + key("info") + "{" + key("a") + array, '\0',
+                  200);
+  write_gzip_bomb(t.path / "kept.bgeo.gz",
+                  std::string("\x7FNSJb[", 6) + key("attributes") + "[" + key("pointattributes") + "[[[" + key("name") +
+                      key("P") + key("type") + key("numeric") + "][" + key("values") + "[" + key("tuples") + "[" + array,
+                  '\0', 200);
+  expect_refused_within("surface " + d + "skipped.bgeo.gz -o " + d + "m.ply", 0.3, "expected a binary JSON token");
+  expect_refused_within("surface " + d + "kept.bgeo.gz -o " + d + "m.ply", 0.3, "numbers decoded up to");
+}
+
 TEST(Safety, ParticlesAndFieldsPastTheLimitAreRefusedBeforeTheyAreHeld) {
   TempDir t;
   const std::string d = t.path.string() + "/";

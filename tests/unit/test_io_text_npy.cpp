@@ -176,8 +176,8 @@ TEST(CsvHeader, AWideHeaderReadsInTimeLinearInItsSize) {
                                                           float((c + 3) % 10)}));
   }
   // Per byte, within a bound of the frame's text: a name costs a few allocations and lookups where
-  // a value costs a parse (about 12 times as much a byte here; ASan's allocator widens that), and
-  // the square of the columns, thousands of times as much.
+  // a value costs a parse, so the bound leaves room for many times the frame's cost a byte (more
+  // under ASan, whose allocator is slower); a scan per name costs the square of the names.
   const double per_byte = (t_wide / double(wide.size())) / (t_frame / double(reference.size()));
   RecordProperty("seconds_frame", std::to_string(t_frame));
   RecordProperty("seconds_wide", std::to_string(t_wide));

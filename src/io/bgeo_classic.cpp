@@ -30,6 +30,7 @@
 #include <fmt/format.h>
 
 #include "io/atomic_file.hpp"
+#include "io/text_lines.hpp"
 #include "meniscus/errors.hpp"
 
 namespace meniscus::io {
@@ -90,7 +91,7 @@ std::vector<DictionaryEntry> read_dictionary(ByteCursor& c, uint32_t count, cons
     e.name.assign(reinterpret_cast<const char*>(name.data()), name.size());
     const std::size_t size_at = c.offset();
     e.size = c.read<uint16_t>(Endian::big, "an attribute size");
-    if (e.size == 0) c.fail_at(size_at, fmt::format("expected a non-zero size for {} attribute '{}'", kind, e.name));
+    if (e.size == 0) c.fail_at(size_at, fmt::format("expected a non-zero size for {} attribute '{}'", kind, excerpt(e.name)));
     // The high 16 bits carry type info flags (e.g. "index pair") that do not change the layout.
     e.type = c.read<uint32_t>(Endian::big, "an attribute type") & 0xFFFFu;
     switch (e.type) {
@@ -106,11 +107,11 @@ std::vector<DictionaryEntry> read_dictionary(ByteCursor& c, uint32_t count, cons
       case type_string:
         c.fail_at(entry_at, fmt::format("{} attribute '{}' has the STRING type (2), which classic bgeo readers do "
                                         "not support; expected FLOAT (0), INT (1), INDEX (4) or VECTOR (5)",
-                                        kind, e.name));
+                                        kind, excerpt(e.name)));
       default:
         c.fail_at(entry_at, fmt::format("expected attribute type FLOAT (0), INT (1), INDEX (4) or VECTOR (5) for {} "
                                         "attribute '{}', found {}",
-                                        kind, e.name, e.type));
+                                        kind, excerpt(e.name), e.type));
     }
   }
   return entries;

@@ -15,6 +15,7 @@
 
 #include <fmt/format.h>
 
+#include "io/text_lines.hpp"
 #include "meniscus/errors.hpp"
 
 namespace meniscus::io {
@@ -79,7 +80,8 @@ float half_to_float(uint16_t h) {
 // values are read by type or skipped whole.
 class BinaryJson {
  public:
-  explicit BinaryJson(const Source& source) : bytes_(source.bytes), c_(source.bytes, source.path, source.gzip) {
+  explicit BinaryJson(const Source& source)
+      : source_(source), bytes_(source.bytes), c_(source.bytes, source.path, source.gzip) {
     const ByteView magic = c_.take(5, "the binary JSON magic");
     if (magic[0] != 0x7F) c_.fail_at(0, "expected the binary JSON magic byte 0x7F");
     if (std::equal(magic.begin() + 1, magic.end(), "NSJb")) endian_ = Endian::little;
@@ -98,9 +100,12 @@ class BinaryJson {
         c_.skip(1, "");
         const std::size_t at = c_.offset();
         const uint64_t id = read_length("a token id");
-        std::string text = read_string_body();
+        const std::string_view text = read_string_body();
         if (tokens_.size() > c_.size()) c_.fail_at(at, "expected fewer string tokens than bytes");
-        tokens_[id] = std::move(text);
+        // A token of a few bytes costs a map entry: what they hold is checked as they come.
+        if (tokens_.insert_or_assign(id, text).second && tokens_.size() % 4096 == 0)
+          check_read_memory(source_, double(tokens_.size()) * kTokenBytes,
+                            fmt::format("{} string tokens", tokens_.size()));
         continue;
       }
       if (token == jid_token_undef) {
@@ -126,7 +131,9 @@ class BinaryJson {
     return true;
   }
 
-  std::string read_string(const char* what) {
+  // A string of the file: a view of its bytes (those of a token's definition for a reference),
+  // valid as long as the file's bytes, so a string referred to many times is never copied.
+  std::string_view read_string(const char* what) {
     const uint8_t token = peek();
     const std::size_t at = offset();
     if (token == jid_string) {
@@ -171,36 +178,7 @@ class BinaryJson {
   }
 
   // A list of numbers: a uniform array (any numeric or bool element type) or an array of numbers.
-  void read_numbers(std::vector<double>& out, const char* what) {
-    const uint8_t token = peek();
-    if (token == jid_uniform_array) {
-      c_.skip(1, "");
-      const std::size_t at = offset();
-      const uint8_t type = c_.read<uint8_t>(endian_, "a uniform array element type");
-      const uint64_t count = read_length("a uniform array length");
-      if (type == jid_bool) {
-        // Bools are packed LSB-first into 32-bit words.
-        const uint64_t word_count = count / 32 + (count % 32 != 0);
-        c_.require_records(word_count, 4, what);
-        const uint8_t* p = c_.take(std::size_t(word_count) * 4, what).data();
-        out.reserve(out.size() + std::size_t(count));
-        for (uint64_t i = 0; i < count; ++i) {
-          const uint32_t word = ByteCursor::load<uint32_t>(p + 4 * (i / 32), endian_);
-          out.push_back(double((word >> (i % 32)) & 1u));
-        }
-        return;
-      }
-      const std::size_t size = scalar_size(type);
-      if (size == 0) fail_at(at, fmt::format("expected a numeric element type for {}, found 0x{:02X}", what, type));
-      c_.require_records(count, size, what);
-      const uint8_t* p = c_.take(std::size_t(count) * size, what).data();
-      out.reserve(out.size() + std::size_t(count));
-      for (uint64_t i = 0; i < count; ++i) out.push_back(load_scalar(type, p + i * size));
-      return;
-    }
-    expect(jid_array_begin, what);
-    while (!try_consume(jid_array_end)) out.push_back(read_number(what));
-  }
+  void read_numbers(std::vector<double>& out, const char* what) { numbers(&out, what); }
 
   void skip_value(int depth = 0) {
     if (depth > max_depth) fail(fmt::format("expected values nested at most {} levels deep", max_depth));
@@ -212,11 +190,7 @@ class BinaryJson {
       case jid_bool: c_.skip(2, "a bool"); return;
       case jid_string:
       case jid_token_ref: read_string("a string"); return;
-      case jid_uniform_array: {
-        std::vector<double> ignored;
-        read_numbers(ignored, "a uniform array");
-        return;
-      }
+      case jid_uniform_array: numbers(nullptr, "a uniform array"); return;
       case jid_array_begin:
         c_.skip(1, "");
         while (!try_consume(jid_array_end)) skip_value(depth + 1);
@@ -239,7 +213,7 @@ class BinaryJson {
 
   // Houdini writes most objects as arrays of alternating keys and values, some as maps: both are
   // walked here; `on_entry` must consume the value of each key.
-  void for_each_entry(const char* what, const std::function<void(const std::string&)>& on_entry) {
+  void for_each_entry(const char* what, const std::function<void(std::string_view)>& on_entry) {
     const uint8_t token = peek();
     if (token != jid_array_begin && token != jid_map_begin)
       fail(fmt::format("expected {} (an array of keys and values, or a map), found token 0x{:02X}", what, token));
@@ -249,6 +223,56 @@ class BinaryJson {
   }
 
  private:
+  // Reads a list of numbers into *out, or skips it (out null) without decoding it.
+  void numbers(std::vector<double>* out, const char* what) {
+    const uint8_t token = peek();
+    if (token == jid_uniform_array) {
+      c_.skip(1, "");
+      const std::size_t at = offset();
+      const uint8_t type = c_.read<uint8_t>(endian_, "a uniform array element type");
+      const uint64_t count = read_length("a uniform array length");
+      if (type == jid_bool) {
+        // Bools are packed LSB-first into 32-bit words.
+        const uint64_t word_count = count / 32 + (count % 32 != 0);
+        c_.require_records(word_count, 4, what);
+        const uint8_t* p = c_.take(std::size_t(word_count) * 4, what).data();
+        if (!out) return;
+        hold(double(count), what);
+        out->reserve(out->size() + std::size_t(count));
+        for (uint64_t i = 0; i < count; ++i) {
+          const uint32_t word = ByteCursor::load<uint32_t>(p + 4 * (i / 32), endian_);
+          out->push_back(double((word >> (i % 32)) & 1u));
+        }
+        return;
+      }
+      const std::size_t size = scalar_size(type);
+      if (size == 0) fail_at(at, fmt::format("expected a numeric element type for {}, found 0x{:02X}", what, type));
+      c_.require_records(count, size, what);
+      const uint8_t* p = c_.take(std::size_t(count) * size, what).data();
+      if (!out) return;
+      hold(double(count), what);
+      out->reserve(out->size() + std::size_t(count));
+      for (uint64_t i = 0; i < count; ++i) out->push_back(load_scalar(type, p + i * size));
+      return;
+    }
+    expect(jid_array_begin, what);
+    while (!try_consume(jid_array_end)) {
+      const double v = read_number(what);
+      if (!out) continue;
+      hold(1, what);
+      out->push_back(v);
+    }
+  }
+
+  // Counts `values` more decoded doubles against the read's memory: a byte of the file may stand
+  // for a double (an int8 array) or eight (a packed bool array).
+  void hold(double values, const char* what) {
+    decoded_ += values;
+    const double bytes = decoded_ * sizeof(double);
+    if (source_.limit.bytes && double(source_.bytes.size()) + bytes > double(source_.limit.bytes))
+      check_read_memory(source_, bytes, fmt::format("{:.0f} numbers decoded up to {}", decoded_, what));
+  }
+
   // Lengths and ids: a byte below 0xF1 is the value; F2, F4, F8 announce a uint16, uint32, int64.
   uint64_t read_length(const char* what) {
     const std::size_t at = offset();
@@ -265,11 +289,11 @@ class BinaryJson {
                             what, first));
   }
 
-  std::string read_string_body() {
+  std::string_view read_string_body() {
     const uint64_t length = read_length("a string length");
     c_.require_records(length, 1, "a string");
     const ByteView text = c_.take(std::size_t(length), "a string");
-    return std::string(reinterpret_cast<const char*>(text.data()), text.size());
+    return std::string_view(reinterpret_cast<const char*>(text.data()), text.size());
   }
 
   double load_scalar(uint8_t type, const uint8_t* p) const {
@@ -287,10 +311,14 @@ class BinaryJson {
     }
   }
 
+  static constexpr double kTokenBytes = 64;  // a token's map entry, its text being the file's
+
+  const Source& source_;
   ByteView bytes_;
   ByteCursor c_;
   Endian endian_ = Endian::little;
-  std::unordered_map<uint64_t, std::string> tokens_;
+  std::unordered_map<uint64_t, std::string_view> tokens_;  // views of the definitions' bytes
+  double decoded_ = 0;  // values read_numbers has decoded
 };
 
 // The numeric payload of one attribute, in whichever layout the file used.
@@ -316,7 +344,7 @@ struct PointAttribute {
 void read_payload(BinaryJson& json, PointAttribute& attribute) {
   Payload& p = attribute.payload;
   p.at = json.offset();
-  json.for_each_entry("an attribute's values", [&](const std::string& key) {
+  json.for_each_entry("an attribute's values", [&](std::string_view key) {
     if (key == "size") {
       attribute.tuple_size = json.read_integer("the tuple size");
     } else if (key == "storage") {
@@ -349,7 +377,7 @@ void read_payload(BinaryJson& json, PointAttribute& attribute) {
         const std::size_t length = p.raw.size() - before;
         if (lists == 0) first_length = length;
         else if (length != first_length)
-          json.fail_at(at, fmt::format("expected every list of '{}' to hold {} values, found {}", key, first_length,
+          json.fail_at(at, fmt::format("expected every list of '{}' to hold {} values, found {}", excerpt(key), first_length,
                                        length));
         ++lists;
       }
@@ -369,12 +397,12 @@ std::vector<float> unpack(const BinaryJson& json, const PointAttribute& a, std::
   std::vector<float> out;
   auto mismatch = [&](std::size_t expected, std::size_t found) {
     json.fail_at(p.at, fmt::format("expected {} values for point attribute '{}' ({} points × {}), found {}", expected,
-                                   a.name, count, tuple, found));
+                                   excerpt(a.name), count, tuple, found));
   };
   switch (p.layout) {
     case Payload::none:
       json.fail_at(p.at, fmt::format("expected 'tuples', 'arrays' or 'rawpagedata' values for point attribute '{}'",
-                                     a.name));
+                                     excerpt(a.name)));
     case Payload::tuples: {
       if (p.raw.size() != count * tuple || (count > 0 && p.lists != count)) mismatch(count * tuple, p.raw.size());
       out.resize(count * tuple);
@@ -398,21 +426,21 @@ std::vector<float> unpack(const BinaryJson& json, const PointAttribute& a, std::
   for (const int64_t s : p.packing) {
     if (s < 1 || s > a.tuple_size)
       json.fail_at(p.at, fmt::format("expected packing sizes from 1 to {} for point attribute '{}', found {}",
-                                     a.tuple_size, a.name, s));
+                                     a.tuple_size, excerpt(a.name), s));
     packing.push_back(std::size_t(s));
   }
   std::size_t packed = 0;
   for (const std::size_t s : packing) packed += s;
   if (packed != tuple)
     json.fail_at(p.at, fmt::format("expected the packing of point attribute '{}' to add up to its tuple size {}, found {}",
-                                   a.name, tuple, packed));
+                                   excerpt(a.name), tuple, packed));
   if (p.page_size < 1 || p.page_size > (int64_t(1) << 20))
-    json.fail_at(p.at, fmt::format("expected a page size from 1 to 1048576 for point attribute '{}', found {}", a.name,
+    json.fail_at(p.at, fmt::format("expected a page size from 1 to 1048576 for point attribute '{}', found {}", excerpt(a.name),
                                    p.page_size));
   if (!p.constant_pages.empty() && p.constant_pages.size() != packing.size())
     json.fail_at(p.at, fmt::format("expected constant page flags for each of the {} packed sub-vectors of point "
                                    "attribute '{}', found {} lists",
-                                   packing.size(), a.name, p.constant_pages.size()));
+                                   packing.size(), excerpt(a.name), p.constant_pages.size()));
   const std::size_t page_size = std::size_t(p.page_size);
   const std::size_t pages = count / page_size + (count % page_size != 0);
   auto constant = [&](std::size_t j, std::size_t page) {
@@ -421,7 +449,7 @@ std::vector<float> unpack(const BinaryJson& json, const PointAttribute& a, std::
   };
   for (std::size_t j = 0; j < p.constant_pages.size(); ++j)
     if (!p.constant_pages[j].empty() && p.constant_pages[j].size() != pages)
-      json.fail_at(p.at, fmt::format("expected {} constant page flags for point attribute '{}', found {}", pages, a.name,
+      json.fail_at(p.at, fmt::format("expected {} constant page flags for point attribute '{}', found {}", pages, excerpt(a.name),
                                      p.constant_pages[j].size()));
   // Size check before writing anything: the exact number of raw values this layout needs.
   std::size_t expected = 0;
@@ -432,7 +460,7 @@ std::vector<float> unpack(const BinaryJson& json, const PointAttribute& a, std::
   if (p.raw.size() != expected)
     json.fail_at(p.at, fmt::format("expected {} raw page values for point attribute '{}' ({} points, page size {}), "
                                    "found {}",
-                                   expected, a.name, count, page_size, p.raw.size()));
+                                   expected, excerpt(a.name), count, page_size, p.raw.size()));
   out.resize(count * tuple);
   std::size_t r = 0;
   for (std::size_t page = 0; page < pages; ++page) {
@@ -456,12 +484,12 @@ void read_attribute(BinaryJson& json, std::vector<PointAttribute>& out) {
   PointAttribute a;
   a.at = json.offset();
   json.expect(jid_array_begin, "a point attribute ([definition, values])");
-  json.for_each_entry("a point attribute definition", [&](const std::string& key) {
+  json.for_each_entry("a point attribute definition", [&](std::string_view key) {
     if (key == "name") a.name = json.read_string("the attribute name");
     else if (key == "type") a.type = json.read_string("the attribute type");
     else json.skip_value();
   });
-  json.for_each_entry("a point attribute's data", [&](const std::string& key) {
+  json.for_each_entry("a point attribute's data", [&](std::string_view key) {
     if (key == "size") a.tuple_size = json.read_integer("the tuple size");
     else if (key == "storage") a.storage = json.read_string("the storage type");
     else if (key == "values" && a.type == "numeric") read_payload(json, a);
@@ -471,7 +499,7 @@ void read_attribute(BinaryJson& json, std::vector<PointAttribute>& out) {
   if (a.type != "numeric") return;
   if (a.name.empty()) json.fail_at(a.at, "expected a name for the point attribute");
   if (a.tuple_size < 1 || a.tuple_size > 65535)
-    json.fail_at(a.at, fmt::format("expected a tuple size from 1 to 65535 for point attribute '{}', found {}", a.name,
+    json.fail_at(a.at, fmt::format("expected a tuple size from 1 to 65535 for point attribute '{}', found {}", excerpt(a.name),
                                    a.tuple_size));
   out.push_back(std::move(a));
 }
@@ -498,9 +526,9 @@ struct Geometry {
 };
 
 void read_topology(BinaryJson& json, Geometry& g) {
-  json.for_each_entry("the topology", [&](const std::string& key) {
+  json.for_each_entry("the topology", [&](std::string_view key) {
     if (key != "pointref") return json.skip_value();
-    json.for_each_entry("the point references", [&](const std::string& inner) {
+    json.for_each_entry("the point references", [&](std::string_view inner) {
       if (inner != "indices") return json.skip_value();
       g.pointref_at = json.offset();
       g.pointref.emplace();
@@ -511,7 +539,7 @@ void read_topology(BinaryJson& json, Geometry& g) {
 
 void read_polygon_run(BinaryJson& json, Polygons& run) {
   run.run = true;
-  json.for_each_entry("a polygon run", [&](const std::string& key) {
+  json.for_each_entry("a polygon run", [&](std::string_view key) {
     if (key == "s_v" || key == "startvertex") run.start = json.read_integer("the run's first vertex");
     else if (key == "n_p" || key == "nprimitives") run.primitives = json.read_integer("the run's primitive count");
     else if (key == "r_v" || key == "nvertices_rle") json.read_numbers(run.rle, "the run-length encoded vertex counts");
@@ -530,16 +558,16 @@ void read_primitives(BinaryJson& json, Geometry& g) {
     std::string type, run_type;
     std::vector<std::string> varying;
     bool uniform_closed = true;
-    json.for_each_entry("a primitive definition", [&](const std::string& key) {
+    json.for_each_entry("a primitive definition", [&](std::string_view key) {
       if (key == "type") {
         type = json.read_string("the primitive type");
       } else if (key == "runtype") {
         run_type = json.read_string("the primitive type of a run");
       } else if (key == "varyingfields") {
         json.expect(jid_array_begin, "the varying fields of a run");
-        while (!json.try_consume(jid_array_end)) varying.push_back(json.read_string("a varying field"));
+        while (!json.try_consume(jid_array_end)) varying.emplace_back(json.read_string("a varying field"));
       } else if (key == "uniformfields") {
-        json.for_each_entry("the uniform fields of a run", [&](const std::string& field) {
+        json.for_each_entry("the uniform fields of a run", [&](std::string_view field) {
           if (field == "closed") uniform_closed = json.read_number("the closed flag") != 0.0;
           else json.skip_value();
         });
@@ -552,7 +580,7 @@ void read_primitives(BinaryJson& json, Geometry& g) {
       g.polygons.push_back(std::move(p));
     } else if (type == "Poly" || type == "Polygon") {
       bool closed = true;
-      json.for_each_entry("a polygon", [&](const std::string& key) {
+      json.for_each_entry("a polygon", [&](std::string_view key) {
         if (key == "vertex") json.read_numbers(p.vertices, "the polygon's vertices");
         else if (key == "closed") closed = json.read_number("the closed flag") != 0.0;
         else json.skip_value();
@@ -583,7 +611,7 @@ void read_primitives(BinaryJson& json, Geometry& g) {
 
 Geometry read_geometry(BinaryJson& json, bool want_mesh) {
   Geometry g;
-  json.for_each_entry("the geometry", [&](const std::string& key) {
+  json.for_each_entry("the geometry", [&](std::string_view key) {
     if (key == "pointcount") {
       g.point_count_at = json.offset();
       g.point_count = json.read_integer("the point count");
@@ -591,7 +619,7 @@ Geometry read_geometry(BinaryJson& json, bool want_mesh) {
       g.vertex_count_at = json.offset();
       g.vertex_count = json.read_integer("the vertex count");
     } else if (key == "attributes") {
-      json.for_each_entry("the attributes", [&](const std::string& kind) {
+      json.for_each_entry("the attributes", [&](std::string_view kind) {
         if (kind != "pointattributes") return json.skip_value();
         json.expect(jid_array_begin, "the point attributes");
         while (!json.try_consume(jid_array_end)) read_attribute(json, g.attributes);

@@ -8,7 +8,9 @@
 
 #include <fmt/format.h>
 
+#include "io/text_lines.hpp"
 #include "meniscus/errors.hpp"
+#include "meniscus/messages.hpp"
 
 namespace meniscus::io {
 
@@ -36,8 +38,8 @@ const PyValue* PyValue::get(std::string_view key) const {
 
 class LiteralParser {
  public:
-  LiteralParser(std::string_view text, const ByteCursor& cursor, std::size_t base)
-      : text_(text), cursor_(cursor), base_(base) {}
+  LiteralParser(std::string_view text, const ByteCursor& cursor, std::size_t base, const Source& source)
+      : text_(text), cursor_(cursor), base_(base), source_(source) {}
 
   PyValue parse() {
     PyValue v = value(0);
@@ -67,6 +69,11 @@ class LiteralParser {
     if (depth > 16) fail("expected a flat header, found nesting deeper than 16");
     skip_space();
     if (pos_ >= text_.size()) fail("expected a value, found the end");
+    // Each value costs a PyValue: a header of many small ones ("[0,0,0,…]") holds far more than
+    // its text, so what they hold is checked against the read's memory as they are made.
+    held_ += double(sizeof(PyValue));
+    if (++values_ % 4096 == 0)
+      check_read_memory(source_, held_, fmt::format("the {} values of the .npy header", values_));
     const char c = text_[pos_];
     PyValue v;
     if (c == '\'' || c == '"') {
@@ -74,6 +81,7 @@ class LiteralParser {
       const std::size_t end = text_.find(c, pos_ + 1);
       if (end == std::string_view::npos) fail("expected a closing quote");
       v.text = std::string(text_.substr(pos_ + 1, end - pos_ - 1));
+      held_ += double(v.text.size());
       pos_ = end + 1;
     } else if (c == '(' || c == '[') {
       const char close = c == '(' ? ')' : ']';
@@ -121,7 +129,10 @@ class LiteralParser {
   std::string_view text_;
   const ByteCursor& cursor_;
   std::size_t base_;
+  const Source& source_;
   std::size_t pos_ = 0;
+  std::size_t values_ = 0;
+  double held_ = 0;  // the PyValues made so far, and the text of their strings
 };
 
 struct Scalar {
@@ -177,9 +188,16 @@ ParticleSet read_npy_particles(const Source& source, const ReadOptions& /*option
   const std::size_t header_len = major == 1 ? cursor.read<uint16_t>(Endian::little, "the header length")
                                             : cursor.read<uint32_t>(Endian::little, "the header length");
   const std::size_t header_at = cursor.offset();
+  // The header is a line of text: bounded like the text formats' lines, and refused at its first
+  // binary byte.
+  if (header_len > kMaxLineBytes)
+    cursor.fail_at(header_at - (major == 1 ? 2 : 4),
+                   fmt::format("expected a header of at most {}, the header length says {} bytes",
+                               human_bytes(double(kMaxLineBytes)), header_len));
   const ByteView header_bytes = cursor.take(header_len, "the header dictionary");
+  check_text(source, header_at, header_at + header_len, false);
   const std::string_view header_text(reinterpret_cast<const char*>(header_bytes.data()), header_bytes.size());
-  const PyValue header = LiteralParser(header_text, cursor, header_at).parse();
+  const PyValue header = LiteralParser(header_text, cursor, header_at, source).parse();
   auto bad_header = [&](const std::string& what) -> void { cursor.fail_at(header_at, what); };
   if (header.kind != PyValue::dict) bad_header("expected the header to be a dictionary");
   const PyValue* descr = header.get("descr");
@@ -192,7 +210,7 @@ ParticleSet read_npy_particles(const Source& source, const ReadOptions& /*option
     // '<f4', '>f8', '|u1', '=i4' …: byte order, kind, size.
     Scalar s;
     if (d.size() < 3 || (d[0] != '<' && d[0] != '>' && d[0] != '|' && d[0] != '='))
-      bad_header(fmt::format("expected a dtype like '<f4', found '{}'", d));
+      bad_header(fmt::format("expected a dtype like '<f4', found '{}'", excerpt(d)));
     std::size_t size = 0;
     const auto [ptr, ec] = std::from_chars(d.data() + 2, d.data() + d.size(), size);
     s.kind = d[1];
@@ -203,7 +221,7 @@ ParticleSet read_npy_particles(const Source& source, const ReadOptions& /*option
                      ((s.kind == 'i' || s.kind == 'u') && (size == 1 || size == 2 || size == 4 || size == 8)) ||
                      (s.kind == 'b' && size == 1) || (s.kind == 'V' && size > 0 && size < (1u << 20)));
     if (!ok)
-      bad_header(fmt::format("expected a numeric dtype (f4, f8, i1…i8, u1…u8, b1), found '{}'", d));
+      bad_header(fmt::format("expected a numeric dtype (f4, f8, i1…i8, u1…u8, b1), found '{}'", excerpt(d)));
     return s;
   };
 
@@ -228,7 +246,7 @@ ParticleSet read_npy_particles(const Source& source, const ReadOptions& /*option
 
   if (descr->kind == PyValue::string) {
     const Scalar s = scalar_of(descr->text);
-    if (s.kind != 'f') bad_header(fmt::format("expected a float32 or float64 array, found dtype '{}'", descr->text));
+    if (s.kind != 'f') bad_header(fmt::format("expected a float32 or float64 array, found dtype '{}'", excerpt(descr->text)));
     if (shape->items.size() != 2 || shape->items[1].number < 3)
       bad_header("expected a 2-D shape (N, k) with k ≥ 3 columns x, y, z, …");
     const uint64_t n = uint64_t(shape->items[0].number), k = uint64_t(shape->items[1].number);
@@ -252,6 +270,8 @@ ParticleSet read_npy_particles(const Source& source, const ReadOptions& /*option
   }
 
   if (descr->kind != PyValue::sequence) bad_header("expected 'descr' to be a dtype string or a list of fields");
+  if (descr->items.size() > kMaxColumns)
+    bad_header(fmt::format("expected at most {} structured fields, found {}", kMaxColumns, descr->items.size()));
   std::vector<Field> fields;
   std::size_t record = 0;
   for (const PyValue& f : descr->items) {
@@ -259,7 +279,7 @@ ParticleSet read_npy_particles(const Source& source, const ReadOptions& /*option
       bad_header("expected each structured field as ('name', 'dtype'[, shape])");
     if (f.items[1].kind != PyValue::string)
       bad_header(fmt::format("expected a scalar dtype for field '{}' (nested structures are not supported)",
-                             f.items[0].text));
+                             excerpt(f.items[0].text)));
     Field field{f.items[0].text, scalar_of(f.items[1].text), 1, record};
     if (f.items.size() > 2) {
       const PyValue& sub = f.items[2];
@@ -267,11 +287,11 @@ ParticleSet read_npy_particles(const Source& source, const ReadOptions& /*option
       else
         for (const PyValue& d : sub.items) {
           if (d.kind != PyValue::integer || d.number < 1 || d.number > 4096)
-            bad_header(fmt::format("expected a sub-array shape of 1..4096 per axis for field '{}'", field.name));
+            bad_header(fmt::format("expected a sub-array shape of 1..4096 per axis for field '{}'", excerpt(field.name)));
           field.components *= std::size_t(d.number);
         }
       if (field.components < 1 || field.components > 4096)
-        bad_header(fmt::format("expected 1..4096 values per record for field '{}'", field.name));
+        bad_header(fmt::format("expected 1..4096 values per record for field '{}'", excerpt(field.name)));
     }
     record += field.components * field.scalar.size;
     if (field.scalar.kind != 'V') fields.push_back(std::move(field));  // void fields are alignment padding

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "io/atomic_file.hpp"
+#include "io/text_lines.hpp"
 #include "meniscus/errors.hpp"
 
 namespace meniscus::io {
@@ -53,12 +54,13 @@ bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' |
 class ObjLines {
  public:
   explicit ObjLines(const Source& source)
-      : text_(reinterpret_cast<const char*>(source.bytes.data()), source.bytes.size()), file_(source.path) {}
+      : source_(source), text_(reinterpret_cast<const char*>(source.bytes.data()), source.bytes.size()),
+        file_(source.path) {}
 
+  // Lines are text of bounded length (line_end refuses a binary byte or a line past kMaxLineBytes).
   bool next(std::string_view& line) {
     if (pos_ >= text_.size()) return false;
-    std::size_t end = text_.find('\n', pos_);
-    if (end == std::string_view::npos) end = text_.size();
+    const std::size_t end = line_end(source_, pos_);
     line = text_.substr(pos_, end - pos_);
     pos_ = end + 1;
     ++line_;
@@ -88,7 +90,7 @@ class ObjLines {
     if (begin != end && *begin == '+') ++begin;
     float v = 0;
     const auto [ptr, ec] = std::from_chars(begin, end, v);
-    if (ec != std::errc() || ptr != end) fail(fmt::format("expected a number for {}, found '{}'", what, word));
+    if (ec != std::errc() || ptr != end) fail(fmt::format("expected a number for {}, found '{}'", what, excerpt(word)));
     return v;
   }
 
@@ -97,7 +99,7 @@ class ObjLines {
     int64_t i = 0;
     const auto [ptr, ec] = std::from_chars(word.data(), word.data() + word.size(), i);
     if (ec != std::errc() || ptr != word.data() + word.size() || i == 0)
-      fail(fmt::format("expected a non-zero integer {} index, found '{}'", what, word));
+      fail(fmt::format("expected a non-zero integer {} index, found '{}'", what, excerpt(word)));
     const int64_t zero_based = i > 0 ? i - 1 : int64_t(count) + i;
     if (zero_based < 0 || uint64_t(zero_based) >= count)
       fail(fmt::format("{} index {} is out of range: {} {}s are defined so far", what, i, count, what));
@@ -107,6 +109,7 @@ class ObjLines {
   }
 
  private:
+  const Source& source_;
   std::string_view text_;
   std::string file_;
   std::size_t pos_ = 0;

@@ -8,10 +8,12 @@
 #include <optional>
 #include <set>
 #include <string_view>
+#include <unordered_map>
 
 #include <fmt/format.h>
 
 #include "io/atomic_file.hpp"
+#include "io/text_lines.hpp"
 #include "meniscus/errors.hpp"
 
 namespace meniscus::io {
@@ -50,6 +52,13 @@ std::optional<Scalar> parse_scalar(std::string_view word) {
   return std::nullopt;
 }
 
+// Hashes std::string and std::string_view alike, so a name is looked up without a copy.
+struct NameHash {
+  using is_transparent = void;
+  std::size_t operator()(std::string_view name) const { return std::hash<std::string_view>{}(name); }
+};
+using NameIndex = std::unordered_map<std::string, std::size_t, NameHash, std::equal_to<>>;
+
 struct Property {
   std::string name;
   Scalar type = Scalar::float32;  // the item type for lists
@@ -62,6 +71,12 @@ struct Element {
   uint64_t count = 0;
   std::vector<Property> properties;
   std::size_t line = 0;  // header line that declared it
+  NameIndex index;       // property name → its index: lookups in constant time
+
+  void add(Property property) {
+    index.emplace(property.name, properties.size());
+    properties.push_back(std::move(property));
+  }
 
   bool has_list() const {
     return std::any_of(properties.begin(), properties.end(), [](const Property& p) { return p.list; });
@@ -74,14 +89,12 @@ struct Element {
     return n;
   }
   const Property* find(std::string_view property) const {
-    for (const Property& p : properties)
-      if (p.name == property) return &p;
-    return nullptr;
+    const std::size_t i = index_of(property);
+    return i < properties.size() ? &properties[i] : nullptr;
   }
   std::size_t index_of(std::string_view property) const {
-    for (std::size_t i = 0; i < properties.size(); ++i)
-      if (properties[i].name == property) return i;
-    return properties.size();
+    const auto it = index.find(property);
+    return it == index.end() ? properties.size() : it->second;
   }
 };
 
@@ -90,14 +103,14 @@ enum class Encoding { ascii, binary_little_endian, binary_big_endian };
 struct Header {
   Encoding encoding = Encoding::ascii;
   std::vector<Element> elements;
+  NameIndex index;              // element name → its index
   std::size_t body_offset = 0;  // first byte after "end_header\n"
   std::size_t body_line = 0;    // line number of the first body line
   std::size_t end_line = 0;     // line of end_header
 
   const Element* find(std::string_view name) const {
-    for (const Element& e : elements)
-      if (e.name == name) return &e;
-    return nullptr;
+    const auto it = index.find(name);
+    return it == index.end() ? nullptr : &elements[it->second];
   }
 };
 
@@ -110,10 +123,12 @@ std::string_view encoding_name(Encoding e) {
   return "?";
 }
 
-std::vector<std::string_view> split_words(std::string_view line) {
+// The first `limit` words of a header line (no line holds more than 5; a sixth tells that there
+// are too many, without a view of every word of a hostile line).
+std::vector<std::string_view> split_words(std::string_view line, std::size_t limit = 6) {
   std::vector<std::string_view> words;
   std::size_t i = 0;
-  while (i < line.size()) {
+  while (i < line.size() && words.size() < limit) {
     while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
     const std::size_t start = i;
     while (i < line.size() && line[i] != ' ' && line[i] != '\t' && line[i] != '\r') ++i;
@@ -141,9 +156,20 @@ Header parse_header(const Source& source) {
   Header header;
   bool have_format = false;
   std::size_t pos = 0;
+  // Elements and properties declared, and what they hold in memory (the names twice, with their
+  // lookups): a header of many short lines costs more than its text.
+  std::size_t entries = 0;
+  double held = 0;
+  auto count_entry = [&](std::size_t line_no, std::size_t name_size) {
+    if (++entries > kMaxColumns)
+      fail(line_no, fmt::format("expected at most {} elements and properties in the header", kMaxColumns));
+    held += 2.0 * double(name_size) + 256.0;
+    if (entries % 4096 == 0) check_read_memory(source, held, fmt::format("the header's {} properties", entries));
+  };
   for (std::size_t line_no = 1;; ++line_no) {
-    const std::size_t newline = text.find('\n', pos);
-    if (newline == std::string_view::npos)
+    // Header lines are text of bounded length whatever the body holds.
+    const std::size_t newline = line_end(source, pos);
+    if (newline == text.size())
       fail(line_no, "expected 'end_header' before the end of the file (the header is incomplete)");
     const std::string_view line = text.substr(pos, newline - pos);
     pos = newline + 1;
@@ -154,6 +180,7 @@ Header parse_header(const Source& source) {
     if (keyword == "comment" || keyword == "obj_info") continue;
     if (keyword == "end_header") {
       if (!have_format) fail(line_no, "expected a 'format' line before 'end_header'");
+      check_read_memory(source, held, fmt::format("the header's {} properties", entries));
       header.body_offset = pos;
       header.body_line = line_no + 1;
       header.end_line = line_no;
@@ -169,7 +196,7 @@ Header parse_header(const Source& source) {
       else if (words[1] == "binary_big_endian") header.encoding = Encoding::binary_big_endian;
       else
         fail(line_no, fmt::format("expected 'format ascii|binary_little_endian|binary_big_endian 1.0', found "
-                                  "format '{}'", words[1]));
+                                  "format '{}'", excerpt(words[1])));
       have_format = true;
       continue;
     }
@@ -178,10 +205,12 @@ Header parse_header(const Source& source) {
       if (words.size() != 3) fail(line_no, "expected 'element <name> <count>'");
       const std::optional<uint64_t> count = parse_count(words[2]);
       if (!count)
-        fail(line_no, fmt::format("expected a non-negative integer element count, found '{}'", words[2]));
+        fail(line_no, fmt::format("expected a non-negative integer element count, found '{}'", excerpt(words[2])));
       if (header.find(words[1]))
-        fail(line_no, fmt::format("expected each element once, element '{}' is declared twice", words[1]));
-      header.elements.push_back(Element{std::string(words[1]), *count, {}, line_no});
+        fail(line_no, fmt::format("expected each element once, element '{}' is declared twice", excerpt(words[1])));
+      count_entry(line_no, words[1].size());
+      header.index.emplace(std::string(words[1]), header.elements.size());
+      header.elements.push_back(Element{std::string(words[1]), *count, {}, line_no, {}});
       continue;
     }
     if (keyword == "property") {
@@ -194,11 +223,11 @@ Header parse_header(const Source& source) {
         const std::optional<Scalar> item_type = parse_scalar(words[3]);
         if (!count_type || !info(*count_type).integer)
           fail(line_no, fmt::format("expected an integer list count type (uchar, ushort, uint …), found '{}'",
-                                    words[2]));
+                                    excerpt(words[2])));
         if (!item_type)
           fail(line_no, fmt::format("expected a list item type (char, uchar, short, ushort, int, uint, float, "
                                     "double), found '{}'",
-                                    words[3]));
+                                    excerpt(words[3])));
         property = Property{std::string(words[4]), *item_type, true, *count_type};
       } else {
         if (words.size() != 3) fail(line_no, "expected 'property <type> <name>'");
@@ -206,18 +235,19 @@ Header parse_header(const Source& source) {
         if (!type)
           fail(line_no, fmt::format("expected a property type (char, uchar, short, ushort, int, uint, float, "
                                     "double or their int8 … float64 names), found '{}'",
-                                    words[1]));
+                                    excerpt(words[1])));
         property = Property{std::string(words[2]), *type, false, Scalar::uint8};
       }
       if (element.find(property.name))
         fail(line_no, fmt::format("expected distinct property names, '{}' appears twice in element '{}'",
-                                  property.name, element.name));
-      element.properties.push_back(std::move(property));
+                                  excerpt(property.name), excerpt(element.name)));
+      count_entry(line_no, property.name.size());
+      element.add(std::move(property));
       continue;
     }
     fail(line_no, fmt::format("expected 'format', 'element', 'property', 'comment', 'obj_info' or 'end_header', "
                               "found '{}'",
-                              keyword));
+                              excerpt(keyword)));
   }
 }
 
@@ -239,7 +269,7 @@ std::string describe(const Where& w) {
   const char* part = w.part == Where::count ? "list count" : w.part == Where::item ? "list item" : "value";
   // "an int value", "a uint value": the article follows the sound.
   return fmt::format("{} {} {} for property '{}' of {} {}", type == Scalar::int32 ? "an" : "a", info(type).name,
-                     part, w.property->name, w.element->name, w.record);
+                     part, excerpt(w.property->name), excerpt(w.element->name), w.record);
 }
 
 class BinaryBody {
@@ -273,7 +303,7 @@ class BinaryBody {
 
   void check_count(const Element& element) const {
     cursor_.require_records(element.count, element.min_binary_size(),
-                            fmt::format("element '{}' (declared with {} records on header line {})", element.name,
+                            fmt::format("element '{}' (declared with {} records on header line {})", excerpt(element.name),
                                         element.count, element.line));
   }
 
@@ -282,7 +312,7 @@ class BinaryBody {
     if (n > cursor_.remaining() / size)
       cursor_.fail(fmt::format("expected {} list items of {} bytes for property '{}' of {} {}, but only {} bytes "
                                "are left",
-                               n, size, where.property->name, where.element->name, where.record,
+                               n, size, excerpt(where.property->name), excerpt(where.element->name), where.record,
                                cursor_.remaining()));
   }
 
@@ -324,7 +354,9 @@ class AsciiBody {
       : text_(reinterpret_cast<const char*>(source.bytes.data()), source.bytes.size()),
         file_(source.path),
         pos_(header.body_offset),
-        line_(header.body_line) {}
+        line_(header.body_line) {
+    check_text(source, header.body_offset, source.bytes.size());  // the body is text, to its last byte
+  }
 
   double scalar(Scalar type, const Where& where) {
     const std::string_view token = next_token(where);
@@ -360,7 +392,7 @@ class AsciiBody {
                         fmt::format("expected {}{}, found '{}'", describe(where),
                                     t.integer ? fmt::format(" (an integer in {}..{})", int64_t(t.min), int64_t(t.max))
                                               : "",
-                                    shorten(token)));
+                                    excerpt(token)));
     return value;
   }
 
@@ -374,7 +406,7 @@ class AsciiBody {
                         fmt::format("expected {} records of {} values for element '{}' (declared on header line "
                                     "{}), but only {} bytes of text are left (the count is larger than the file "
                                     "can hold)",
-                                    element.count, values, element.name, element.line, text_.size() - pos_));
+                                    element.count, values, excerpt(element.name), element.line, text_.size() - pos_));
   }
 
   void check_list(uint64_t n, Scalar /*item*/, const Where& where) const {
@@ -382,7 +414,7 @@ class AsciiBody {
       throw FormatError(file_, fmt::format("line {}", last_line_),
                         fmt::format("expected {} list items for property '{}' of {} {}, but only {} bytes of text "
                                     "are left",
-                                    n, where.property->name, where.element->name, where.record,
+                                    n, excerpt(where.property->name), excerpt(where.element->name), where.record,
                                     text_.size() - pos_));
   }
 
@@ -409,14 +441,10 @@ class AsciiBody {
     throw FormatError(file_, fmt::format("line {}", line_),
                       fmt::format("expected the end of the file after the elements its header counts, found '{}' "
                                   "(do the counts match the data?)",
-                                  shorten(text_.substr(pos_, end - pos_))));
+                                  excerpt(text_.substr(pos_, end - pos_))));
   }
 
  private:
-  static std::string shorten(std::string_view token) {
-    return token.size() <= 40 ? std::string(token) : std::string(token.substr(0, 40)) + "…";
-  }
-
   std::string_view next_token(const Where& where) {
     while (pos_ < text_.size()) {
       const char c = text_[pos_];
@@ -463,7 +491,7 @@ struct BodyTargets {
 uint64_t read_list_count(auto& body, const Property& property, const Where& where) {
   const double n = body.scalar(property.count_type, Where{where.element, where.property, where.record, Where::count});
   if (n < 0) body.fail_last(fmt::format("expected a non-negative list count for property '{}' of {} {}, found {}",
-                                        property.name, where.element->name, where.record, int64_t(n)));
+                                        excerpt(property.name), excerpt(where.element->name), where.record, int64_t(n)));
   return uint64_t(n);
 }
 
@@ -575,8 +603,6 @@ struct Group {
 std::vector<Group> group_properties(const Element& element, std::vector<bool> taken) {
   const std::vector<Property>& props = element.properties;
   std::vector<Group> groups;
-  std::set<std::string> names;
-  for (const Property& p : props) names.insert(p.name);
   std::set<std::string> used;
 
   auto free_scalar = [&](std::string_view name) -> std::optional<std::size_t> {
@@ -592,7 +618,7 @@ std::vector<Group> group_properties(const Element& element, std::vector<bool> ta
       members.push_back(*i);
     }
     // A group may not take the name of a property or of another attribute.
-    if (used.count(name) || (names.count(name) && std::find(member_names.begin(), member_names.end(), name) ==
+    if (used.count(name) || (element.find(name) && std::find(member_names.begin(), member_names.end(), name) ==
                                                       member_names.end()))
       return;
     for (std::size_t i : members) taken[i] = true;

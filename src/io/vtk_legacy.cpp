@@ -15,6 +15,7 @@
 
 #include "io/atomic_file.hpp"
 #include "io/obj.hpp"
+#include "io/text_lines.hpp"
 #include "meniscus/errors.hpp"
 
 namespace meniscus::io {
@@ -68,10 +69,12 @@ std::optional<Type> parse_type(std::string_view word) {
 
 bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\f' || c == '\v'; }
 
-std::vector<std::string_view> split_words(std::string_view line) {
+// The first `limit` words of a keyword line (none needs more than 4): a hostile line of many
+// words costs no view of each.
+std::vector<std::string_view> split_words(std::string_view line, std::size_t limit = 8) {
   std::vector<std::string_view> words;
   std::size_t i = 0;
-  while (i < line.size()) {
+  while (i < line.size() && words.size() < limit) {
     while (i < line.size() && is_space(line[i])) ++i;
     const std::size_t start = i;
     while (i < line.size() && !is_space(line[i])) ++i;
@@ -123,6 +126,8 @@ class LegacyParser {
 
   Parsed parse() {
     parse_preamble();
+    // An ASCII file is text to its last byte: values are read token by token, not as lines.
+    if (!out_.binary) check_text(source_, pos_, text_.size());
     enum class Section { geometry, point_data, cell_data } section = Section::geometry;
     uint64_t section_count = 0;
     std::size_t at = 0;
@@ -134,7 +139,7 @@ class LegacyParser {
       };
       auto count_of = [&](std::size_t i, std::string_view form) {
         const std::optional<uint64_t> n = parse_count(words[i]);
-        if (!n) fail_at(at, fmt::format("expected a non-negative count in '{}', found '{}'", form, words[i]));
+        if (!n) fail_at(at, fmt::format("expected a non-negative count in '{}', found '{}'", form, shorten(words[i])));
         return *n;
       };
       if (keyword == "points") {
@@ -217,10 +222,10 @@ class LegacyParser {
   }
 
   // The line at pos_ (without its end), consumed. At the end of the data returns an empty view.
+  // Keyword lines are text of bounded length even between binary blocks (line_end refuses others).
   std::string_view take_line() {
     const std::size_t start = pos_;
-    std::size_t end = text_.find('\n', pos_);
-    if (end == std::string_view::npos) end = text_.size();
+    const std::size_t end = line_end(source_, pos_, !out_.binary);
     pos_ = std::min(end + 1, text_.size());
     std::string_view line = text_.substr(start, end - start);
     if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
@@ -261,7 +266,7 @@ class LegacyParser {
     if (out_.dataset != "polydata" && out_.dataset != "unstructured_grid" && out_.dataset != "structured_grid")
       fail_at(at, fmt::format("expected DATASET POLYDATA, UNSTRUCTURED_GRID or STRUCTURED_GRID (datasets with "
                               "explicit points), found '{}'",
-                              dataset[1]));
+                              shorten(dataset[1])));
   }
 
   void skip_metadata() {
@@ -465,38 +470,38 @@ class LegacyParser {
       std::string_view next;
       std::size_t next_at = 0;
       if (!(next_keyword_line(next, next_at) && lower(split_words(next)[0]) == "lookup_table")) pos_ = save;
-      read_values(t, checked_mul(count, uint64_t(c), at), sink, fmt::format("SCALARS '{}'", name));
+      read_values(t, checked_mul(count, uint64_t(c), at), sink, fmt::format("SCALARS '{}'", shorten(name)));
       if (point_data) keep(name, c, t, std::move(values));
     } else if (keyword == "vectors" || keyword == "normals") {
       need(3, fmt::format("{} <name> <type>", words[0]));
       const Type t = type_of(words[2], at);
-      read_values(t, checked_mul(count, 3, at), sink, fmt::format("{} '{}'", words[0], name));
+      read_values(t, checked_mul(count, 3, at), sink, fmt::format("{} '{}'", words[0], shorten(name)));
       if (point_data) keep(name, 3, t, std::move(values), keyword == "normals");
     } else if (keyword == "texture_coordinates") {
       need(4, "TEXTURE_COORDINATES <name> <dim> <type>");
       const int c = components_of(words[2]);
       const Type t = type_of(words[3], at);
-      read_values(t, checked_mul(count, uint64_t(c), at), sink, fmt::format("TEXTURE_COORDINATES '{}'", name));
+      read_values(t, checked_mul(count, uint64_t(c), at), sink, fmt::format("TEXTURE_COORDINATES '{}'", shorten(name)));
       if (point_data) keep(name, c, t, std::move(values));
     } else if (keyword == "tensors" || keyword == "tensors6") {
       need(3, fmt::format("{} <name> <type>", words[0]));
       const Type t = type_of(words[2], at);
       const int c = keyword == "tensors" ? 9 : 6;
-      read_values(t, checked_mul(count, uint64_t(c), at), sink, fmt::format("{} '{}'", words[0], name));
+      read_values(t, checked_mul(count, uint64_t(c), at), sink, fmt::format("{} '{}'", words[0], shorten(name)));
       if (point_data) keep(name, c, t, std::move(values));
     } else if (keyword == "color_scalars") {
       need(3, "COLOR_SCALARS <name> <components>");
       const int c = components_of(words[2]);
       // Binary colour scalars are bytes 0..255, ASCII ones floats 0..1.
       const Type t = out_.binary ? Type::uint8 : Type::float32;
-      read_values(t, checked_mul(count, uint64_t(c), at), sink, fmt::format("COLOR_SCALARS '{}'", name));
+      read_values(t, checked_mul(count, uint64_t(c), at), sink, fmt::format("COLOR_SCALARS '{}'", shorten(name)));
       if (out_.binary)
         for (float& v : values) v /= 255.0f;
       if (point_data) out_.arrays.push_back(PointArray{name, c, false, false, std::move(values)});
     } else if (keyword == "global_ids" || keyword == "pedigree_ids") {
       need(3, fmt::format("{} <name> <type>", words[0]));
       const Type t = type_of(words[2], at);
-      read_values(t, count, sink, fmt::format("{} '{}'", words[0], name));
+      read_values(t, count, sink, fmt::format("{} '{}'", words[0], shorten(name)));
       if (point_data) keep(name, 1, t, std::move(values));
     } else {  // a lookup table of its own: size RGBA entries, never per point
       need(3, "LOOKUP_TABLE <name> <size>");
@@ -533,7 +538,7 @@ class LegacyParser {
       const bool per_point = point_data && *tuples == out_.points.size();
       std::vector<float> values;
       read_values(t, checked_mul(*components, *tuples, at), per_point ? &values : nullptr,
-                  fmt::format("FIELD array '{}'", words[0]));
+                  fmt::format("FIELD array '{}'", shorten(words[0])));
       if (per_point) keep(std::string(words[0]), int(*components), t, std::move(values));
     }
   }

@@ -12,6 +12,7 @@
 
 #include <fmt/format.h>
 
+#include "io/text_lines.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/messages.hpp"
 
@@ -101,13 +102,17 @@ std::string unescape(std::string_view s) {
 // A purpose-written scanner for the small XML subset VTK writes: declarations, comments, start
 // and end tags with quoted attributes. Text content is left to the caller (it is only read for
 // DataArrays), and scanning stops at <AppendedData>, after which the bytes may be raw binary.
+// Everything it passes is text (refused at its first binary byte), and a tag holds at most
+// kMaxTagBytes.
 class TagScanner {
  public:
-  TagScanner(std::string_view text, const ByteCursor& errors) : text_(text), errors_(errors) {}
+  TagScanner(const Source& source, std::string_view text, const ByteCursor& errors)
+      : source_(source), text_(text), errors_(errors) {}
 
   std::optional<Tag> next() {
     for (;;) {
       const std::size_t lt = text_.find('<', pos_);
+      check_to(lt == std::string_view::npos ? text_.size() : lt);
       if (lt == std::string_view::npos) return std::nullopt;
       const std::string_view rest = text_.substr(lt);
       if (rest.starts_with("<?")) {
@@ -124,61 +129,85 @@ class TagScanner {
   std::size_t position() const { return pos_; }
 
  private:
-  std::size_t skip_to(std::size_t from, std::string_view end) const {
+  // Refuses the first binary byte before `end` not checked yet.
+  void check_to(std::size_t end) {
+    if (end <= checked_) return;
+    check_text(source_, checked_, end);
+    checked_ = end;
+  }
+
+  // A malformed construct: a binary byte before the point of failure is what is reported.
+  [[noreturn]] void fail_at(std::size_t at, const std::string& message) {
+    check_to(std::min(at + 1, text_.size()));
+    errors_.fail_at(at, message);
+  }
+
+  std::size_t skip_to(std::size_t from, std::string_view end) {
     const std::size_t e = text_.find(end, from);
-    if (e == std::string_view::npos) errors_.fail_at(from, fmt::format("expected '{}' to end the XML construct", end));
+    if (e == std::string_view::npos) fail_at(text_.size(), fmt::format("expected '{}' to end the XML construct", end));
+    check_to(e + end.size());
     return e + end.size();
   }
 
   Tag tag(std::size_t lt) {
+    // The tag is parsed within kMaxTagBytes of its '<': reaching that bound is its own error.
+    const std::string_view text = text_.substr(0, std::min(text_.size(), lt + kMaxTagBytes));
+    const auto ended = [&](std::size_t i, const std::string& message) {
+      if (text.size() < text_.size())
+        fail_at(lt, fmt::format("expected a tag of at most {}, found a longer one", human_bytes(double(kMaxTagBytes))));
+      fail_at(i, message);
+    };
     Tag t;
     t.at = lt;
     std::size_t i = lt + 1;
-    if (i < text_.size() && text_[i] == '/') {
+    if (i < text.size() && text[i] == '/') {
       t.closing = true;
       ++i;
     }
     const std::size_t name_start = i;
-    while (i < text_.size() && !is_space(text_[i]) && text_[i] != '>' && text_[i] != '/') ++i;
-    t.name = std::string(text_.substr(name_start, i - name_start));
-    if (t.name.empty()) errors_.fail_at(lt, "expected an XML tag name after '<'");
+    while (i < text.size() && !is_space(text[i]) && text[i] != '>' && text[i] != '/') ++i;
+    t.name = std::string(text.substr(name_start, i - name_start));
+    if (t.name.empty()) fail_at(lt, "expected an XML tag name after '<'");
     for (;;) {
-      while (i < text_.size() && is_space(text_[i])) ++i;
-      if (i >= text_.size()) errors_.fail_at(lt, fmt::format("expected '>' to close the <{}> tag", t.name));
-      if (text_[i] == '>') {
+      while (i < text.size() && is_space(text[i])) ++i;
+      if (i >= text.size()) ended(lt, fmt::format("expected '>' to close the <{}> tag", excerpt(t.name)));
+      if (text[i] == '>') {
         ++i;
         break;
       }
-      if (text_[i] == '/' && i + 1 < text_.size() && text_[i + 1] == '>') {
+      if (text[i] == '/' && i + 1 < text.size() && text[i + 1] == '>') {
         t.self_closing = true;
         i += 2;
         break;
       }
       const std::size_t key_start = i;
-      while (i < text_.size() && !is_space(text_[i]) && text_[i] != '=' && text_[i] != '>') ++i;
-      const std::string key(text_.substr(key_start, i - key_start));
-      while (i < text_.size() && is_space(text_[i])) ++i;
-      if (i >= text_.size() || text_[i] != '=' || key.empty())
-        errors_.fail_at(i, fmt::format("expected name=\"value\" attributes in the <{}> tag", t.name));
+      while (i < text.size() && !is_space(text[i]) && text[i] != '=' && text[i] != '>') ++i;
+      const std::string key(text.substr(key_start, i - key_start));
+      while (i < text.size() && is_space(text[i])) ++i;
+      if (i >= text.size() || text[i] != '=' || key.empty())
+        ended(i, fmt::format("expected name=\"value\" attributes in the <{}> tag", excerpt(t.name)));
       ++i;
-      while (i < text_.size() && is_space(text_[i])) ++i;
-      if (i >= text_.size() || (text_[i] != '"' && text_[i] != '\''))
-        errors_.fail_at(i, fmt::format("expected a quoted value for attribute '{}' of <{}>", key, t.name));
-      const char quote = text_[i];
-      const std::size_t close = text_.find(quote, i + 1);
+      while (i < text.size() && is_space(text[i])) ++i;
+      if (i >= text.size() || (text[i] != '"' && text[i] != '\''))
+        ended(i, fmt::format("expected a quoted value for attribute '{}' of <{}>", excerpt(key), excerpt(t.name)));
+      const char quote = text[i];
+      const std::size_t close = text.find(quote, i + 1);
       if (close == std::string_view::npos)
-        errors_.fail_at(i, fmt::format("expected the closing quote of attribute '{}' of <{}>", key, t.name));
-      t.attributes.emplace_back(key, unescape(text_.substr(i + 1, close - i - 1)));
+        ended(i, fmt::format("expected the closing quote of attribute '{}' of <{}>", excerpt(key), excerpt(t.name)));
+      t.attributes.emplace_back(key, unescape(text.substr(i + 1, close - i - 1)));
       i = close + 1;
     }
+    check_to(i);
     t.end = i;
     pos_ = i;
     return t;
   }
 
+  const Source& source_;
   std::string_view text_;
   const ByteCursor& errors_;
   std::size_t pos_ = 0;
+  std::size_t checked_ = 0;  // the bytes before it are text
 };
 
 // ------------------------------------------------------------------------------------ arrays
@@ -255,7 +284,7 @@ class VtuReader {
         } else if (particles.attributes[k].name != a.name || particles.attributes[k].components != a.components) {
           errors_.fail_at(a.at, fmt::format("expected point array '{}' ({} components) as in the first <Piece>, "
                                             "found '{}' ({})",
-                                            particles.attributes[k].name, particles.attributes[k].components, a.name,
+                                            excerpt(particles.attributes[k].name), particles.attributes[k].components, excerpt(a.name),
                                             a.components));
         }
         std::vector<float>& out = particles.attributes[k].values;
@@ -313,18 +342,26 @@ class VtuReader {
 
  private:
   void scan() {
-    TagScanner scanner(text_, errors_);
+    TagScanner scanner(source_, text_, errors_);
     std::vector<std::string> open;
     bool seen_root = false;
+    // What the pieces and array references hold, checked as they are made: a file of many empty
+    // <Piece/> tags costs more than its text.
+    std::size_t made = 0;
+    const auto hold_tag = [&](double bytes) {
+      kept_ += bytes;
+      if (++made % 1024 == 0)
+        check_read_memory(source_, kept_, fmt::format("the {} pieces and arrays of the XML", made));
+    };
     while (std::optional<Tag> tag = scanner.next()) {
       if (tag->closing) {
         if (open.empty() || open.back() != tag->name)
-          errors_.fail_at(tag->at, fmt::format("expected </{}>, found </{}>", open.empty() ? "" : open.back(), tag->name));
+          errors_.fail_at(tag->at, fmt::format("expected </{}>, found </{}>", open.empty() ? "" : excerpt(open.back()), excerpt(tag->name)));
         open.pop_back();
         continue;
       }
       if (!seen_root) {
-        if (tag->name != "VTKFile") errors_.fail_at(tag->at, fmt::format("expected <VTKFile>, found <{}>", tag->name));
+        if (tag->name != "VTKFile") errors_.fail_at(tag->at, fmt::format("expected <VTKFile>, found <{}>", excerpt(tag->name)));
         root(*tag);
         seen_root = true;
       } else if (tag->name == "Piece") {
@@ -332,6 +369,7 @@ class VtuReader {
         piece.at = tag->at;
         piece.points = count_attribute(*tag, "NumberOfPoints");
         if (tag->get("NumberOfPolys")) piece.polys = count_attribute(*tag, "NumberOfPolys");
+        hold_tag(double(sizeof(Piece)));
         pieces_.push_back(std::move(piece));
       } else if (tag->name == "DataArray" && !open.empty() && !pieces_.empty() && open.back() == "Polys") {
         ArrayRef a = array(*tag);
@@ -350,6 +388,7 @@ class VtuReader {
           if (close == std::string_view::npos) errors_.fail_at(tag->at, "expected </DataArray>");
           a.content = text_.substr(tag->end, close - tag->end);
         }
+        hold_tag(double(sizeof(ArrayRef) + a.name.size() + a.format.size()));
         if (open.back() == "Points") {
           if (pieces_.back().positions) errors_.fail_at(tag->at, "expected a single DataArray in <Points>");
           pieces_.back().positions = std::move(a);
@@ -365,7 +404,12 @@ class VtuReader {
         info_.appended_at = i + 1;
         return;  // what follows may be raw binary: no more tags to scan
       }
-      if (!tag->self_closing) open.push_back(tag->name);
+      if (!tag->self_closing) {
+        // VTK's files nest about 6 deep; the open tags are held until they close.
+        if (open.size() == kMaxDepth)
+          errors_.fail_at(tag->at, fmt::format("expected XML nested at most {} tags deep", kMaxDepth));
+        open.push_back(tag->name);
+      }
       // DataArray content (ascii/base64 text) holds no tags; skip it so '<' in it cannot confuse us.
     }
     if (!seen_root) errors_.fail_at(0, "expected a <VTKFile> element");
@@ -394,7 +438,7 @@ class VtuReader {
     uint64_t n = 0;
     const auto parsed = v ? std::from_chars(v->data(), v->data() + v->size(), n) : std::from_chars_result{};
     if (!v || v->empty() || parsed.ec != std::errc() || parsed.ptr != v->data() + v->size())
-      errors_.fail_at(tag.at, fmt::format("expected a non-negative integer attribute {} in <{}>", key, tag.name));
+      errors_.fail_at(tag.at, fmt::format("expected a non-negative integer attribute {} in <{}>", excerpt(key), excerpt(tag.name)));
     return n;
   }
 
@@ -408,17 +452,17 @@ class VtuReader {
     if (!a.type)
       errors_.fail_at(tag.at, fmt::format("expected a numeric DataArray type (Int8 … UInt64, Float32, Float64) for "
                                           "'{}', found '{}'",
-                                          a.name, type));
+                                          excerpt(a.name), excerpt(type)));
     if (tag.get("NumberOfComponents")) {
       const uint64_t c = count_attribute(tag, "NumberOfComponents");
       if (c < 1 || c > 1024)
-        errors_.fail_at(tag.at, fmt::format("expected 1..1024 components for '{}', found {}", a.name, c));
+        errors_.fail_at(tag.at, fmt::format("expected 1..1024 components for '{}', found {}", excerpt(a.name), c));
       a.components = int(c);
     }
     a.format = tag.get("format").value_or("ascii");
     if (a.format == "appended") a.offset = count_attribute(tag, "offset");
     else if (a.format != "ascii" && a.format != "binary")
-      errors_.fail_at(tag.at, fmt::format("expected format ascii, binary or appended for '{}', found '{}'", a.name,
+      errors_.fail_at(tag.at, fmt::format("expected format ascii, binary or appended for '{}', found '{}'", excerpt(a.name),
                                           a.format));
     return a;
   }
@@ -426,7 +470,7 @@ class VtuReader {
   // ---------------------------------------------------------------------------------- decoding
   std::vector<double> values(const ArrayRef& a, uint64_t points, int components) {
     if (a.components != components)
-      errors_.fail_at(a.at, fmt::format("expected {} components for '{}', found {}", components, a.name, a.components));
+      errors_.fail_at(a.at, fmt::format("expected {} components for '{}', found {}", components, excerpt(a.name), a.components));
     const uint64_t count = points * uint64_t(components);
     if (points > std::numeric_limits<uint64_t>::max() / 1024 / 8)
       errors_.fail_at(a.at, fmt::format("NumberOfPoints {} is too large", points));
@@ -437,11 +481,11 @@ class VtuReader {
     if (a.format == "binary") {
       raw = base64_blob(a.content, a, bytes);
     } else {
-      if (!info_.appended_at) errors_.fail_at(a.at, fmt::format("expected <AppendedData> for appended array '{}'", a.name));
+      if (!info_.appended_at) errors_.fail_at(a.at, fmt::format("expected <AppendedData> for appended array '{}'", excerpt(a.name)));
       const std::size_t start = *info_.appended_at;
       if (a.offset > text_.size() - start)
         errors_.fail_at(a.at, fmt::format("array '{}' has offset {}, past the end of the appended data ({} bytes)",
-                                          a.name, a.offset, text_.size() - start));
+                                          excerpt(a.name), a.offset, text_.size() - start));
       if (info_.appended_encoding == "base64") {
         raw = base64_blob(text_.substr(start + std::size_t(a.offset)), a, bytes);
       } else if (info_.appended_encoding == "raw") {
@@ -460,7 +504,7 @@ class VtuReader {
   /// Checks the memory of an array about to be decoded (`bytes`) beside the particles decoded so
   /// far, whose float values the caller adds to kept_ (after its size was checked against the file).
   void hold(const ArrayRef& a, double bytes) const {
-    check_read_memory(source_, kept_ + bytes, fmt::format("array '{}' ({}) and the arrays before it", a.name,
+    check_read_memory(source_, kept_ + bytes, fmt::format("array '{}' ({}) and the arrays before it", excerpt(a.name),
                                                          human_bytes(bytes)));
   }
 
@@ -484,7 +528,7 @@ class VtuReader {
   std::vector<double> ascii(const ArrayRef& a, uint64_t count) const {
     if (count > (a.content.size() + 1) / 2)
       errors_.fail_at(a.at, fmt::format("expected {} ascii values for '{}', but its text has only {} bytes", count,
-                                        a.name, a.content.size()));
+                                        excerpt(a.name), a.content.size()));
     hold(a, 8.0 * double(count));
     std::vector<double> out;
     out.reserve(std::size_t(count));
@@ -511,14 +555,14 @@ class VtuReader {
         v = double(n);
       }
       const std::size_t where = std::size_t(s.data() - text_.data()) + start;
-      if (!ok) errors_.fail_at(where, fmt::format("expected a {} value for '{}', found '{}'", a.type->name, a.name,
+      if (!ok) errors_.fail_at(where, fmt::format("expected a {} value for '{}', found '{}'", a.type->name, excerpt(a.name),
                                                   s.substr(start, std::min<std::size_t>(i - start, 40))));
       if (out.size() == count)
-        errors_.fail_at(where, fmt::format("expected {} values for '{}', found more", count, a.name));
+        errors_.fail_at(where, fmt::format("expected {} values for '{}', found more", count, excerpt(a.name)));
       out.push_back(v);
     }
     if (out.size() != count)
-      errors_.fail_at(a.at, fmt::format("expected {} ascii values for '{}', found {}", count, a.name, out.size()));
+      errors_.fail_at(a.at, fmt::format("expected {} ascii values for '{}', found {}", count, excerpt(a.name), out.size()));
     return out;
   }
 
@@ -533,7 +577,7 @@ class VtuReader {
     ByteCursor c(blob, source_.path, source_.gzip);
     const std::size_t hs = info_.header_size;
     auto fail = [&](const std::string& message) -> void {
-      errors_.fail_at(at, fmt::format("array '{}': {}", a.name, message));
+      errors_.fail_at(at, fmt::format("array '{}': {}", excerpt(a.name), message));
     };
     if (blob.size() < hs) fail("expected the blob header, found the end of the data");
     if (!info_.compressed) {
@@ -598,11 +642,11 @@ class VtuReader {
         ++i;
       }
       if (compact.size() < chars)
-        errors_.fail_at(at, fmt::format("array '{}': expected {} base64 characters for {}, found {}", a.name, chars,
+        errors_.fail_at(at, fmt::format("array '{}': expected {} base64 characters for {}, found {}", excerpt(a.name), chars,
                                         what, compact.size()));
       Bytes out;
       if (const std::optional<std::size_t> bad = base64_decode(std::string_view(compact).substr(0, chars), out))
-        errors_.fail_at(at, fmt::format("array '{}': expected base64 text, found '{}' in {}", a.name, compact[*bad], what));
+        errors_.fail_at(at, fmt::format("array '{}': expected base64 text, found '{}' in {}", excerpt(a.name), compact[*bad], what));
       compact.erase(0, chars);
       return out;
     };
@@ -611,7 +655,7 @@ class VtuReader {
       const Bytes head = decode(base64_chars(hs), "the blob header");
       const uint64_t n = header_int(head.data());
       if (n != expected)
-        errors_.fail_at(at, fmt::format("array '{}': expected {} data bytes, the header says {}", a.name, expected, n));
+        errors_.fail_at(at, fmt::format("array '{}': expected {} data bytes, the header says {}", excerpt(a.name), expected, n));
       // Header and data form one base64 stream: decode it again from the start, whole.
       i = start;
       compact.clear();
@@ -622,7 +666,7 @@ class VtuReader {
     const Bytes first = decode(base64_chars(hs), "the block count");
     const uint64_t blocks = header_int(first.data());
     if (blocks > text.size() / hs)
-      errors_.fail_at(at, fmt::format("array '{}': the header announces {} blocks, more than the text can hold", a.name,
+      errors_.fail_at(at, fmt::format("array '{}': the header announces {} blocks, more than the text can hold", excerpt(a.name),
                                       blocks));
     i = start;
     compact.clear();
@@ -630,7 +674,7 @@ class VtuReader {
     uint64_t compressed = 0;
     for (uint64_t b = 0; b < blocks; ++b) {
       compressed += header_int(header.data() + (3 + b) * hs);
-      if (compressed > text.size()) errors_.fail_at(at, fmt::format("array '{}': compressed sizes exceed the text", a.name));
+      if (compressed > text.size()) errors_.fail_at(at, fmt::format("array '{}': compressed sizes exceed the text", excerpt(a.name)));
     }
     Bytes blob(header.begin(), header.begin() + std::ptrdiff_t((3 + blocks) * hs));
     const Bytes data = decode(base64_chars(compressed), "the compressed blocks");
@@ -641,7 +685,8 @@ class VtuReader {
   const Source& source_;
   std::string_view text_;
   ByteCursor errors_;
-  double kept_ = 0;  // bytes of the particles (and mesh points) decoded so far
+  static constexpr std::size_t kMaxDepth = 64;
+  double kept_ = 0;  // bytes held beside the file: the pieces and arrays scanned, the particles decoded
   FileInfo info_;
   std::vector<Piece> pieces_;
   std::string formats_;

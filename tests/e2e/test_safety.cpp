@@ -440,6 +440,47 @@ TEST(Safety, GzipBombsAndEndlessFilesAreRefusedWithinTheMemoryLimit) {
   EXPECT_TRUE(listing(t.path, false) == (std::vector<std::string>{"members.csv.gz", "zeros.ply.gz", "zeros.txt.gz"}));
 }
 
+// Text that is not text, within the limit: a first line of 200 MB of NUL bytes, and a header of
+// 200 MB of commas (200 million empty column names). Each is refused where it stops being text
+// (the first NUL; the line's 16 MB bound), holding the inflated file and little more, quickly, in
+// a message of a few hundred bytes.
+TEST(Safety, HostileTextIsRefusedAtItsFirstBadByteWithinTheMemoryLimit) {
+  TempDir t;
+  const std::string d = t.path.string() + "/";
+  write_gzip_bomb(t.path / "nul_line.txt.gz", "", '\0', 200);
+  write_gzip_bomb(t.path / "commas.csv.gz", "", ',', 200);
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"nul_line.txt.gz", "line 1, byte 0 (of the decompressed data): expected text, found the control byte 0x00"},
+      {"commas.csv.gz", "line 1, byte 0 (of the decompressed data): expected a line of at most 16.0 MB"},
+  };
+  for (const auto& [name, says] : cases) {
+    const std::string args = "surface " + d + name + " -o " + d + "m.ply";
+    expect_refused_within(args, 0.3, says);
+    const test::Measured r = test::run_measured(meniscus(args + " --max-memory 0.3"));
+    EXPECT_LT(r.output.size(), 600u) << name << ": a message of " << r.output.size() << " bytes";
+    EXPECT_LT(r.seconds, 10) << name;
+  }
+  EXPECT_EQ(listing(t.path, false), (std::vector<std::string>{"commas.csv.gz", "nul_line.txt.gz"}));
+}
+
+// Binary JSON (.bgeo) with a uniform int8 array of 200 MB: a byte of the file that would become
+// a double. Skipped (under a key the reader ignores) it is never decoded; kept (a point
+// attribute's values) it is refused before it is, at the limit.
+TEST(Safety, BinaryJsonArraysAreSkippedUndecodedAndDecodedWithinTheLimit) {
+  TempDir t;
+  const std::string d = t.path.string() + "/";
+  const auto key = [](const std::string& s) { return "\x27" + std::string(1, char(s.size())) + s; };
+  const std::string array = std::string("\x40\x11\xF4", 3) + std::string("\x00\x00\x80\x0C", 4);  // 200 MiB of int8
+  write_gzip_bomb(t.path / "skipped.bgeo.gz", std::string("\x7FNSJb[", 6) + key("info") + "{" + key("a") + array, '\0',
+                  200);
+  write_gzip_bomb(t.path / "kept.bgeo.gz",
+                  std::string("\x7FNSJb[", 6) + key("attributes") + "[" + key("pointattributes") + "[[[" + key("name") +
+                      key("P") + key("type") + key("numeric") + "][" + key("values") + "[" + key("tuples") + "[" + array,
+                  '\0', 200);
+  expect_refused_within("surface " + d + "skipped.bgeo.gz -o " + d + "m.ply", 0.3, "expected a binary JSON token");
+  expect_refused_within("surface " + d + "kept.bgeo.gz -o " + d + "m.ply", 0.3, "numbers decoded up to");
+}
+
 TEST(Safety, ParticlesAndFieldsPastTheLimitAreRefusedBeforeTheyAreHeld) {
   TempDir t;
   const std::string d = t.path.string() + "/";

@@ -574,6 +574,33 @@ TEST(BgeoJson, MalformedStreamsAreFormatErrors) {
   expect_format_error([&] { read_stream(huge); }, {"byte ", "point count"});
 }
 
+// A token of 1 MB defined once and referred to 20,000 times (as the keys of a map the reader
+// skips): its text is the file's, never copied per reference, so the stream reads in the time of
+// its bytes, a small multiple of the time the 6,859-particle frame takes.
+TEST(BgeoJson, AStringReferredToManyTimesIsNeverCopied) {
+  const double t_frame = test::fastest_seconds(3, [] {
+    EXPECT_EQ(read_particles(test::data_file("dam_break_frame_9_6859_particles.bgeo")).size(), 6859u);
+  });
+  const std::string bytes = geometry(3, [](BinaryJsonEncoder& e) {
+    e.attribute("P", 3, "fpreal32", [](BinaryJsonEncoder& x) {
+      x.str("tuples").begin().uniform_f32({1, 2, 3}).uniform_f32({4, 5, 6}).uniform_f32({7, 8, 9}).end();
+    });
+  });
+  // The same stream with a map of 20,000 entries keyed by one long token before its geometry.
+  BinaryJsonEncoder keys;
+  keys.b.clear();
+  keys.begin().define(7, std::string(1 << 20, 'k')).str("info").map_begin();
+  for (int i = 0; i < 20000; ++i) keys.ref(7).i8(int8_t(i));
+  keys.map_end();
+  std::string many = bytes;
+  many.replace(5, 1, keys.b);  // after the magic, in place of the outer '['
+  ParticleSet p;
+  const double t_many = test::fastest_seconds(3, [&] { p = read_stream(many); });
+  ASSERT_EQ(p.size(), 3u);
+  EXPECT_EQ(p.positions[2], (Vec3f{7, 8, 9}));
+  EXPECT_LT(t_many, 20 * t_frame) << t_many << " s, the frame " << t_frame << " s";
+}
+
 // ---------------------------------------------------------------------------------------------
 // .bgeo.sc
 

@@ -13,6 +13,8 @@
 #include <vector>
 #include <zlib.h>
 
+#include <fmt/format.h>
+
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
 #include "support/io_helpers.hpp"
@@ -490,6 +492,93 @@ TEST(PlyGroups, KnownAndSuffixedPropertiesBecomeVectorAttributes) {
   ASSERT_EQ(mesh.attributes.size(), 1u);
   EXPECT_EQ(mesh.attributes[0].name, "velocity");
   EXPECT_EQ(mesh.attributes[0].values, (std::vector<float>{7, 8, 9}));
+}
+
+// The 6,859-particle frame as an ASCII PLY: x y z and every component of its attributes.
+std::string frame_as_ascii_ply(const ParticleSet& p) {
+  std::string header = fmt::format("ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\n"
+                                   "property float z\n",
+                                   p.size());
+  for (const Attribute& a : p.attributes)
+    for (int c = 0; c < a.components; ++c)
+      header += a.components == 1 ? "property float " + a.name + "\n"
+                                  : fmt::format("property float {}_{}\n", a.name, "xyz"[c]);
+  std::string body;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    body += fmt::format("{} {} {}", p.positions[i].x, p.positions[i].y, p.positions[i].z);
+    for (const Attribute& a : p.attributes)
+      for (int c = 0; c < a.components; ++c) body += fmt::format(" {}", a.values[i * std::size_t(a.components) + std::size_t(c)]);
+    body += "\n";
+  }
+  return header + "end_header\n" + body;
+}
+
+// 100,000 vertex properties, ASCII and binary: lonely vector-like names (a_x without a_y, b_0
+// without b_1) among plain ones, and one vector at the end. The header costs about what text of
+// its size costs to read (the frame's ASCII PLY, per byte), not the square of its properties.
+TEST(PlyWideHeaders, AHundredThousandPropertiesReadInTimeLinearInTheirSize) {
+  TempDir dir;
+  const ParticleSet frame = read_particles(test::data_file("ply/dam_break_frame_9_6859_particles.ply"));
+  const std::string reference = frame_as_ascii_ply(frame);
+  write_file(dir.file("frame.ply"), reference);
+  const double t_frame = test::fastest_seconds(3, [&] { EXPECT_EQ(read_particles(dir.file("frame.ply")).size(), 6859u); });
+
+  constexpr std::size_t kProperties = 100000, kVertices = 2;
+  std::vector<std::string> names;
+  for (std::size_t i = 0; names.size() + 3 < kProperties; ++i)
+    names.push_back(i % 4 == 0 ? fmt::format("a{}_x", i) : i % 4 == 1 ? fmt::format("b{}_0", i) : fmt::format("p{}", i));
+  for (const char* n : {"v_x", "v_y", "v_z"}) names.push_back(n);
+  for (const bool binary : {false, true}) {
+    SCOPED_TRACE(binary ? "binary" : "ascii");
+    std::string text = fmt::format("ply\nformat {} 1.0\nelement vertex {}\nproperty float x\nproperty float y\n"
+                                   "property float z\n",
+                                   binary ? "binary_little_endian" : "ascii", kVertices);
+    for (const std::string& n : names) text += "property float " + n + "\n";
+    text += "end_header\n";
+    Encoder body;
+    for (std::size_t v = 0; v < kVertices; ++v) {
+      for (int c = 0; c < 3; ++c) binary ? void(body.put(float(v))) : void(body.bytes += fmt::format("{} ", v));
+      for (std::size_t k = 0; k < names.size(); ++k)
+        binary ? void(body.put(float((k + v) % 7))) : void(body.bytes += fmt::format("{} ", (k + v) % 7));
+      if (!binary) body.bytes += "\n";
+    }
+    text += body.bytes;
+    write_file(dir.file("wide.ply"), text);
+
+    ParticleSet p;
+    const double t_wide = test::fastest_seconds(3, [&] { p = read_particles(dir.file("wide.ply")); });
+    ASSERT_EQ(p.size(), kVertices);
+    ASSERT_EQ(p.attributes.size(), names.size() - 2);  // v_x v_y v_z are one attribute
+    for (const std::size_t k : {std::size_t(0), std::size_t(1), std::size_t(2), std::size_t(54321)}) {
+      EXPECT_EQ(p.attributes[k].name, names[k]);
+      EXPECT_EQ(p.attributes[k].values, (std::vector<float>{float(k % 7), float((k + 1) % 7)}));
+    }
+    const Attribute& v = p.attributes.back();
+    EXPECT_EQ(v.name, "v");
+    EXPECT_EQ(v.components, 3);
+    const std::size_t vx = names.size() - 3;
+    EXPECT_EQ(v.values, (std::vector<float>{float(vx % 7), float((vx + 1) % 7), float((vx + 2) % 7),
+                                            float((vx + 1) % 7), float((vx + 2) % 7), float((vx + 3) % 7)}));
+    // Per byte, within a bound of the frame's text: a name costs a few allocations and lookups where
+    // a value costs a parse, so the bound leaves room for many times the frame's cost a byte (more
+    // under ASan, whose allocator is slower); a scan per name costs the square of the names.
+    const double per_byte = (t_wide / double(text.size())) / (t_frame / double(reference.size()));
+    RecordProperty(binary ? "seconds_wide_binary" : "seconds_wide_ascii", std::to_string(t_wide));
+    EXPECT_LT(per_byte, test::kSanitized ? 100.0 : 40.0)
+        << t_wide << " s for the " << text.size() << " bytes of the wide file, " << t_frame << " s for the "
+        << reference.size() << " bytes of the frame";
+  }
+  RecordProperty("seconds_frame", std::to_string(t_frame));
+}
+
+TEST(PlyWideHeaders, AnAbsurdPropertyCountIsRefusedWithItsLine) {
+  TempDir dir;
+  const std::string path = dir.file("many.ply");
+  std::string text = "ply\nformat binary_little_endian 1.0\nelement vertex 0\n";
+  for (std::size_t i = 0; i < 1'000'000; ++i) text += fmt::format("property uchar p{}\n", i);
+  write_file(path, text + "end_header\n");
+  // The element is an entry too: the millionth property is the 1,000,001st.
+  expect_format_error([&] { read_particles(path); }, {path, "line 1000003", "at most 1000000 elements and properties"});
 }
 
 TEST(PlyGzip, ReadsCompressedFilesByContentNotName) {

@@ -115,6 +115,85 @@ TEST(CsvHeader, ColumnsOptionOverridesAHeaderAndGzipIsTransparent) {
   EXPECT_EQ(p.attributes[0].values, (std::vector<float>{4, 8}));
 }
 
+// Names that differ only in case group as before: each group takes the first column of each
+// lower-case name still free, in column order.
+TEST(CsvHeader, CaseVariantsOfAVectorGroupInColumnOrder) {
+  TempDir dir;
+  const std::string path = dir.file("cases.csv");
+  write_file(path, "x,y,z,A_x,a_x,A_y,a_Y,A_z,a_z,B:0,b:0,B:1\n0,0,0,1,2,3,4,5,6,7,8,9\n");
+  const ParticleSet p = read_particles(path);
+  std::vector<std::string> names;
+  for (const Attribute& a : p.attributes) names.push_back(a.name + "/" + std::to_string(a.components));
+  EXPECT_EQ(names, (std::vector<std::string>{"A/3", "a/3", "B/2", "b:0/1"}));
+  EXPECT_EQ(p.find("A")->values, (std::vector<float>{1, 3, 5}));
+  EXPECT_EQ(p.find("a")->values, (std::vector<float>{2, 4, 6}));
+  EXPECT_EQ(p.find("B")->values, (std::vector<float>{7, 9}));
+}
+
+// The 6,859-particle frame as CSV text: x,y,z and every component of its attributes.
+std::string frame_as_csv(const ParticleSet& p) {
+  std::string text = "x,y,z";
+  for (const Attribute& a : p.attributes)
+    for (int c = 0; c < a.components; ++c)
+      text += a.components == 1 ? "," + a.name : fmt::format(",{}_{}", a.name, "xyz"[c]);
+  text += "\n";
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    text += fmt::format("{},{},{}", p.positions[i].x, p.positions[i].y, p.positions[i].z);
+    for (const Attribute& a : p.attributes)
+      for (int c = 0; c < a.components; ++c) text += fmt::format(",{}", a.values[i * std::size_t(a.components) + std::size_t(c)]);
+    text += "\n";
+  }
+  return text;
+}
+
+// A header of 12,000 columns named like vector components that never complete a vector
+// (a0_x, a1_x, …): reading it costs about what reading text of its size costs (the frame's, per
+// byte), not the square of its columns.
+TEST(CsvHeader, AWideHeaderReadsInTimeLinearInItsSize) {
+  TempDir dir;
+  const ParticleSet frame = read_particles(test::data_file("ply/dam_break_frame_9_6859_particles.ply"));
+  const std::string reference = frame_as_csv(frame);
+  write_file(dir.file("frame.csv"), reference);
+  constexpr std::size_t kColumns = 12000, kRows = 4;
+  std::string wide = "x,y,z";
+  for (std::size_t c = 0; c < kColumns; ++c) wide += fmt::format(",a{}_x", c);
+  wide += "\n";
+  for (std::size_t r = 0; r < kRows; ++r) {
+    wide += fmt::format("{},0,0", r);
+    for (std::size_t c = 0; c < kColumns; ++c) wide += fmt::format(",{}", (c + r) % 10);
+    wide += "\n";
+  }
+  write_file(dir.file("wide.csv"), wide);
+
+  ParticleSet p;
+  const double t_frame = test::fastest_seconds(3, [&] { EXPECT_EQ(read_particles(dir.file("frame.csv")).size(), 6859u); });
+  const double t_wide = test::fastest_seconds(3, [&] { p = read_particles(dir.file("wide.csv")); });
+  ASSERT_EQ(p.size(), kRows);
+  ASSERT_EQ(p.attributes.size(), kColumns);
+  for (const std::size_t c : {std::size_t(0), std::size_t(4321), kColumns - 1}) {
+    EXPECT_EQ(p.attributes[c].name, fmt::format("a{}_x", c));
+    EXPECT_EQ(p.attributes[c].values, (std::vector<float>{float(c % 10), float((c + 1) % 10), float((c + 2) % 10),
+                                                          float((c + 3) % 10)}));
+  }
+  // Per byte, within a bound of the frame's text: a name costs a few allocations and lookups where
+  // a value costs a parse, so the bound leaves room for many times the frame's cost a byte (more
+  // under ASan, whose allocator is slower); a scan per name costs the square of the names.
+  const double per_byte = (t_wide / double(wide.size())) / (t_frame / double(reference.size()));
+  RecordProperty("seconds_frame", std::to_string(t_frame));
+  RecordProperty("seconds_wide", std::to_string(t_wide));
+  EXPECT_LT(per_byte, test::kSanitized ? 100.0 : 40.0)
+      << t_wide << " s for the " << wide.size() << " bytes of the wide header, " << t_frame << " s for the "
+      << reference.size() << " bytes of the frame";
+}
+
+TEST(CsvErrors, AnAbsurdColumnCountIsRefusedWithItsNumber) {
+  TempDir dir;
+  const std::string path = dir.file("columns.csv");
+  // A million and one empty names fit in a short line: refused before any is made.
+  write_file(path, "x,y,z" + std::string(1'000'001, ',') + "a\n0,0,0\n");
+  expect_format_error([&] { read_particles(path); }, {path, "line 1", "at most 1000000 columns, found 1000004"});
+}
+
 TEST(CsvErrors, BadTokenNamesLineAndColumn) {
   TempDir dir;
   const std::string path = dir.file("bad.csv");

@@ -288,6 +288,8 @@ Params resolve_frame_estimates(const ParticleSet& particles, const Params& param
   params.validate();
   ParticleSet boxed = particles;  // the estimates of the particles reconstruct() surfaces
   keep_particles_in_box(boxed, params.particle_box);
+  if (boxed.size() == 0 && particles.size() > 0)  // as reconstruct() says it
+    throw InvalidParameter(fmt::format("particle_box: all {} particles are outside the box", particles.size()));
   return resolve_frame_estimates_parts(boxed, 0, boxed.size(), params, local_reduce());
 }
 

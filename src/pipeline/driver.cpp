@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <stdexcept>
 #include <string>
 
 #include <fmt/format.h>
@@ -17,6 +18,7 @@
 #include "post/decimate.hpp"
 #include "mesh/voids.hpp"
 #include "meniscus/backend.hpp"
+#include "meniscus/distributed.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/memory.hpp"
 #include "meniscus/messages.hpp"
@@ -171,7 +173,11 @@ void post_process(const StagePlan& plan, const ParticleSet& particles, Result& r
 
 }  // namespace
 
-Result reconstruct(const ParticleSet& all_particles, const Params& params, const ProgressFn& progress) {
+namespace {
+
+/// reconstruct(); with `keys`, on the CPU's stages with the vertices' order keys (reconstruct_ordered).
+Result reconstruct_keyed(const ParticleSet& all_particles, const Params& params, const ProgressFn& progress,
+                         std::vector<VertexOrderKey>* keys) {
   // --particle-box: the particles outside are ignored before anything else.
   ParticleSet boxed;
   std::size_t outside = 0;
@@ -206,15 +212,41 @@ Result reconstruct(const ParticleSet& all_particles, const Params& params, const
                                          ? particle_volumes(particles, p.spacing, p.rest_density)
                                          : std::vector<float>{};
   const StagePlan plan = plan_stages(p);  // both backends run these stages, in run_stages' order
-  const PipelineInput in{particles, p, plan, volumes, velocity};
-  if (!run_on_device(in, result, progress)) {
+  const PipelineInput in{particles, p, plan, volumes, velocity, keys != nullptr};
+  if (keys != nullptr || !run_on_device(in, result, progress)) {
     stats.backend = "cpu";
     run_stages(plan, *make_cpu_stages(in, stats, progress), result.mesh);
   }
   post_process(plan, particles, result, progress);
+  if (keys != nullptr) *keys = take_order_keys(result.mesh);
   stats.vertices = result.mesh.vertices.size();
   stats.triangles = result.mesh.triangles.size();
   stats.peak_memory_bytes = peak_resident_bytes();
+  return result;
+}
+
+}  // namespace
+
+Result reconstruct(const ParticleSet& particles, const Params& params, const ProgressFn& progress) {
+  return reconstruct_keyed(particles, params, progress, nullptr);
+}
+
+Result reconstruct_ordered(const ParticleSet& particles, const Params& params, std::vector<VertexOrderKey>& keys) {
+  if (params.backend == Backend::cuda)
+    throw InvalidParameter("backend cuda: a rank of an MPI job surfaces its slab on the CPU, whose extraction gives the "
+                           "vertices' order keys (and the CUDA backend's positions agree with the CPU's to rounding, "
+                           "not bit for bit); use --backend cpu or auto");
+  if (params.steps_a + params.steps_b + params.steps_free == 0)
+    throw InvalidParameter("steps_a, steps_b and steps_free all 0: without a sweep the triangles stay in the "
+                           "extraction's block order, which the ranks' pieces cannot be gathered in; run at least "
+                           "one sweep, or surface in one process");
+  if (params.erode > 0)
+    throw InvalidParameter("erode: the erosion moves each vertex along a normal summed in the slab's triangle order, "
+                           "which rounds differently from the whole frame's at a few vertices");
+  Result result = reconstruct_keyed(particles, params, {}, &keys);
+  for (std::size_t v = 1; v < keys.size(); ++v)
+    if (!(keys[v - 1] < keys[v]))
+      throw std::logic_error(fmt::format("reconstruct_ordered: vertices {} and {} are not in their keys' order", v - 1, v));
   return result;
 }
 

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Runs every command block of the README and docs/cli.md, so that none goes stale.
+"""Runs every command block of the README, docs/cli.md and docs/cluster.md, so that none goes stale.
 
 The build under test is installed (`cmake --install`) into a fresh prefix, as a user's would be,
 and each page's `sh` blocks run in order, with bash -e, in a fresh folder that holds only links
@@ -22,7 +22,7 @@ import time
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from doc_blocks import blocks  # noqa: E402
 
-PAGES = {"README.md": 2, "docs/cli.md": 0}  # page → how many leading blocks .ci/run runs instead
+PAGES = {"README.md": 2, "docs/cli.md": 0, "docs/cluster.md": 0}  # page → how many leading blocks .ci/run runs instead
 
 
 def sandbox(repo, where):

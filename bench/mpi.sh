@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # One frame over MPI ranks against one process, on wide splashes (bench/wide_splash.py): the same
-# surface bit for bit (tests/cluster/same_mesh.py), time, peak memory per rank, the halo's share.
+# file byte for byte (cmp), time, peak memory per rank, the halo's share.
 #   bash bench/mpi.sh [BUILD_DIR] [COUNTS] [RANKS]     defaults: build/release 1000000,3000000 2,4
-# Prints one table row per scene and rank count (markdown, for bench/RESULTS.md). Rank 0 also
-# reads the frame and gathers and welds the pieces; the other ranks only surface their slabs.
+# Prints one table row per scene and rank count (markdown, for bench/RESULTS.md). Every rank reads
+# its part of the frame and surfaces its slab; rank 0 also merges the ranks' pieces into one
+# process's order and writes the .ply.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/build/release}
@@ -17,7 +18,7 @@ mpi=(mpirun --oversubscribe -n)
 [[ $(id -u) == 0 ]] && mpi=(mpirun --allow-run-as-root --oversubscribe -n)
 export OMPI_MCA_btl=self,vader
 echo "# $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//'), $(git -C "$root" rev-parse --short HEAD)"
-echo "| scene | K | time (s) | peak per rank, MB (rank 0 / others) | max / 1 process | largest surfacing rank / 1 process | widest slab with halo / N | halo share of the particles surfaced | slowest rank's surfacing (s) | same surface |"
+echo "| scene | K | time (s) | peak per rank, MB (rank 0 / others) | max / 1 process | largest surfacing rank / 1 process | widest slab with halo / N | halo share of the particles surfaced | slowest rank's surfacing (s) | same file |"
 echo "|---|---|---|---|---|---|---|---|---|---|"
 for n in "${counts[@]}"; do
   /usr/bin/python3 "$root/bench/wide_splash.py" "$n" "$work/splash.ply" >/dev/null
@@ -26,7 +27,7 @@ for n in "${counts[@]}"; do
   printf '| wide splash %s | 1 process | %.1f | %d | 1 | 1 | 1 | 0 | — | — |\n' "$n" "$t1" "$(( ${p1%.*} / 1000000 ))"
   for k in "${ranks[@]}"; do
     "${mpi[@]}" "$k" "$meniscus" surface "$work/splash.ply" -o "$work/k.ply" --spacing 0.01 --stats "$work/k.json" -q --backend cpu
-    same=$(/usr/bin/python3 "$root/tests/cluster/same_mesh.py" "$work/one.ply" "$work/k.ply" >/dev/null && echo yes || echo NO)
+    same=$(cmp -s "$work/one.ply" "$work/k.ply" && echo yes || echo NO)
     /usr/bin/python3 - "$work/k.json" "$p1" "$n" "$k" "$same" <<'PY'
 import json, sys
 j = json.load(open(sys.argv[1]))

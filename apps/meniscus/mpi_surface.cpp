@@ -6,9 +6,11 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <chrono>
 #include <climits>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <exception>
@@ -138,142 +140,171 @@ std::vector<char> receive_bytes(int from, int tag) {
   return bytes;
 }
 
-void send_raw(const void* data, std::size_t bytes, int to, int tag) {
-  const char* p = static_cast<const char*>(data);
-  for (std::size_t at = 0; at < bytes; at += kChunk)
-    MPI_Send(p + at, int(std::min(kChunk, bytes - at)), MPI_BYTE, to, tag, MPI_COMM_WORLD);
-}
+enum Tag : int { kParticles = 1, kKeys = 2, kPlaced = 3, kSeams = 4, kVertices = 5, kTriangles = 6 };
 
-void receive_raw(void* data, std::size_t bytes, int from, int tag) {
-  char* p = static_cast<char*>(data);
-  for (std::size_t at = 0; at < bytes; at += kChunk)
-    MPI_Recv(p + at, int(std::min(kChunk, bytes - at)), MPI_BYTE, from, tag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-}
+// --- The ordered gather's messages (meniscus/distributed.hpp: OrderedGather). Rank 0 numbers the
+// vertices from each rank's keys, chunk by chunk, answering each chunk with its vertices' places,
+// and tells each rank the places of the seam vertices it refers to; the ranks exchange the terms of
+// the seam vertices' normals among themselves; then rank 0 merges their vertices and triangles by
+// index.
 
-enum Tag : int { kParticles = 1, kPiece = 2 };
+static_assert(sizeof(VertexOrderKey) == 2 * sizeof(uint64_t), "order keys travel as two 64-bit words");
+static_assert(sizeof(NormalTerm) == 40, "normal terms travel as 40 bytes without padding");
 
-/// A piece travels to rank 0 in two messages, so that rank 0 holds only the positions of all the
-/// pieces at once (PieceWelder): first its counts, attribute names and positions, then, when rank 0
-/// asks for it by receiving, its attributes and triangles. Normals do not travel: the welded mesh's
-/// are computed again.
-struct PieceHead {
-  uint64_t vertices = 0, triangles = 0;
-  bool normals = false;
-  std::vector<Attribute> attributes;  // names and sizes; the values come with the second message
-};
-
-void send_piece_vertices(const TriangleMesh& m, int to, int tag) {
+std::vector<char> pack(const OrderedGather::KeyChunk& c) {
   Writer w;
-  w.put(uint64_t(m.vertices.size()));
-  w.put(uint64_t(m.triangles.size()));
-  w.put(uint8_t(m.normals.size() == m.vertices.size()));
-  w.put(uint64_t(m.attributes.size()));
-  for (const Attribute& a : m.attributes) {
-    w.put_string(a.name);
-    w.put(int32_t(a.components));
-    w.put(uint8_t(a.integer));
-    w.put(uint64_t(a.values.size()));
-  }
+  w.put_array(c.keys);
+  w.put_array(c.shared_up);
+  w.put_array(c.runs);
+  return std::move(w.bytes);
+}
+
+OrderedGather::KeyChunk unpack_key_chunk(const std::vector<char>& bytes) {
+  Reader r{bytes};
+  OrderedGather::KeyChunk c;
+  c.keys = r.get_array<VertexOrderKey>();
+  c.shared_up = r.get_array<uint8_t>();
+  c.runs = r.get_array<uint32_t>();
+  return c;
+}
+
+std::vector<char> pack(const VertexPlaces& p) {
+  Writer w;
+  w.put_array(p.index);
+  w.put_array(p.first_triangle);
+  return std::move(w.bytes);
+}
+
+VertexPlaces unpack_places(const std::vector<char>& bytes) {
+  Reader r{bytes};
+  VertexPlaces p;
+  p.index = r.get_array<uint32_t>();
+  p.first_triangle = r.get_array<uint32_t>();
+  return p;
+}
+
+std::vector<char> pack(const OrderedGather::VertexChunk& c) {
+  Writer w;
+  w.put_array(c.index);
+  w.put_array(c.vertices.vertices);
+  w.put_array(c.vertices.normals);
+  put_attributes(w, c.vertices.attributes);
+  return std::move(w.bytes);
+}
+
+OrderedGather::VertexChunk unpack_vertex_chunk(const std::vector<char>& bytes) {
+  Reader r{bytes};
+  OrderedGather::VertexChunk c;
+  c.index = r.get_array<uint32_t>();
+  c.vertices.vertices = r.get_array<Vec3f>();
+  c.vertices.normals = r.get_array<Vec3f>();
+  c.vertices.attributes = get_attributes(r);
+  return c;
+}
+
+std::vector<char> pack(const OrderedGather::TriangleChunk& c) {
+  Writer w;
+  w.put_array(c.index);
+  w.put_array(c.triangles);
+  return std::move(w.bytes);
+}
+
+OrderedGather::TriangleChunk unpack_triangle_chunk(const std::vector<char>& bytes) {
+  Reader r{bytes};
+  OrderedGather::TriangleChunk c;
+  c.index = r.get_array<uint32_t>();
+  c.triangles = r.get_array<Triangle>();
+  return c;
+}
+
+template <class T>
+void send_array(const std::vector<T>& values, int to, int tag) {
+  Writer w;
+  w.put_array(values);
   send_bytes(w.bytes, to, tag);
-  send_raw(m.vertices.data(), m.vertices.size() * sizeof(Vec3f), to, tag);
 }
 
-void send_piece_rest(const TriangleMesh& m, int to, int tag) {
-  for (const Attribute& a : m.attributes) send_raw(a.values.data(), a.values.size() * sizeof(float), to, tag);
-  send_raw(m.triangles.data(), m.triangles.size() * sizeof(Triangle), to, tag);
+template <class T>
+std::vector<T> receive_array(int from, int tag) {
+  const std::vector<char> bytes = receive_bytes(from, tag);
+  Reader r{bytes};
+  return r.get_array<T>();
 }
 
-PieceHead receive_piece_vertices(int from, int tag, std::vector<Vec3f>& positions) {
-  const std::vector<char> head = receive_bytes(from, tag);
-  Reader r{head};
-  PieceHead h;
-  h.vertices = r.get<uint64_t>();
-  h.triangles = r.get<uint64_t>();
-  h.normals = r.get<uint8_t>() != 0;
-  h.attributes.resize(r.get<uint64_t>());
-  for (Attribute& a : h.attributes) {
-    a.name = r.get_string();
-    a.components = r.get<int32_t>();
-    a.integer = r.get<uint8_t>() != 0;
-    a.values.resize(r.get<uint64_t>());  // sized here, filled by receive_piece_rest
+/// Every rank sends each rank the normal terms at that rank's vertices; returns those it receives.
+std::vector<NormalTerm> exchange_terms(const std::vector<std::vector<NormalTerm>>& out, int ranks) {
+  std::vector<int> send_counts(static_cast<std::size_t>(ranks)), receive_counts(static_cast<std::size_t>(ranks));
+  std::vector<int> send_at(static_cast<std::size_t>(ranks)), receive_at(static_cast<std::size_t>(ranks));
+  std::vector<NormalTerm> sending;
+  for (int r = 0; r < ranks; ++r) {
+    const std::vector<NormalTerm>& terms = out[std::size_t(r)];
+    if (sending.size() + terms.size() > std::size_t(INT_MAX) / sizeof(NormalTerm))
+      throw std::runtime_error("the gather: more seam terms than one MPI message holds");
+    send_at[std::size_t(r)] = int(sending.size() * sizeof(NormalTerm));
+    send_counts[std::size_t(r)] = int(terms.size() * sizeof(NormalTerm));
+    sending.insert(sending.end(), terms.begin(), terms.end());
   }
-  positions.resize(h.vertices);
-  receive_raw(positions.data(), positions.size() * sizeof(Vec3f), from, tag);
-  return h;
+  MPI_Alltoall(send_counts.data(), 1, MPI_INT, receive_counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  std::size_t total = 0;
+  for (int r = 0; r < ranks; ++r) {
+    if (total + std::size_t(receive_counts[std::size_t(r)]) > std::size_t(INT_MAX))
+      throw std::runtime_error("the gather: more seam terms than one MPI message holds");
+    receive_at[std::size_t(r)] = int(total);
+    total += std::size_t(receive_counts[std::size_t(r)]);
+  }
+  std::vector<NormalTerm> received(total / sizeof(NormalTerm));
+  MPI_Alltoallv(sending.data(), send_counts.data(), send_at.data(), MPI_BYTE, received.data(), receive_counts.data(),
+                receive_at.data(), MPI_BYTE, MPI_COMM_WORLD);
+  return received;
 }
 
-/// Fills the head's attribute values and returns the triangles.
-std::vector<Triangle> receive_piece_rest(PieceHead& h, int from, int tag) {
-  for (Attribute& a : h.attributes) receive_raw(a.values.data(), a.values.size() * sizeof(float), from, tag);
-  std::vector<Triangle> triangles(h.triangles);
-  receive_raw(triangles.data(), triangles.size() * sizeof(Triangle), from, tag);
-  return triangles;
-}
-
-/// The streamed gather (StreamPart): each rank sends its part in two messages, its written
-/// vertices first and, once rank 0 has written every rank's vertices, its triangles.
-void send_part(const StreamPart& part, int to, int tag) {
-  send_piece_vertices(part.written, to, tag);
-  send_raw(part.shared_up.data(), part.shared_up.size(), to, tag);
-  for (const Attribute& a : part.written.attributes) send_raw(a.values.data(), a.values.size() * sizeof(float), to, tag);
-  send_raw(part.written.normals.data(), part.written.normals.size() * sizeof(Vec3f), to, tag);
-  const uint64_t counts[2] = {part.triangles.size(), part.foreign.size()};
-  send_raw(counts, sizeof counts, to, tag);
-  send_raw(part.triangles.data(), part.triangles.size() * sizeof(Triangle), to, tag);
-  send_raw(part.foreign.data(), part.foreign.size() * sizeof(Vec3f), to, tag);
-}
-
-/// Rank 0: writes the PLY from its own part and the other ranks' as they come, the header from
-/// `counts` (written vertices and triangles of each rank). Returns the vertex count.
-std::size_t write_streamed(const std::string& path, StreamPart own, int ranks, const std::vector<uint64_t>& counts) {
-  std::size_t vertices = 0, triangles = 0;
-  for (int r = 0; r < ranks; ++r) vertices += counts[2 * std::size_t(r)], triangles += counts[2 * std::size_t(r) + 1];
-
-  // The vertices, rank by rank (rank 0's own first); the layout is the first non-empty part's.
-  StreamIndex index;
-  std::optional<io::PlyMeshWriter> writer;
-  auto write_vertices = [&](const StreamPart& part) {
-    index.add_written(part.written.vertices, part.shared_up);
-    if (part.written.vertices.empty()) return;
-    if (!writer) writer.emplace(path, vertices, triangles, part.written);
-    writer->add_vertices(part.written);
-  };
-  write_vertices(own);
-  own.written = {}, own.shared_up = {};
-  for (int r = 1; r < ranks; ++r) {
-    StreamPart part;
-    const PieceHead head = receive_piece_vertices(r, kPiece, part.written.vertices);
-    part.shared_up.resize(part.written.vertices.size());
-    receive_raw(part.shared_up.data(), part.shared_up.size(), r, kPiece);
-    part.written.attributes = head.attributes;
-    for (Attribute& a : part.written.attributes) receive_raw(a.values.data(), a.values.size() * sizeof(float), r, kPiece);
-    if (head.normals) {
-      part.written.normals.resize(part.written.vertices.size());
-      receive_raw(part.written.normals.data(), part.written.normals.size() * sizeof(Vec3f), r, kPiece);
+/// Where rank 0 puts the gathered mesh: a PLY written as the batches come (the header from the
+/// numbering's counts), or, for the other formats, the whole mesh, written afterwards.
+class GatheredMesh {
+ public:
+  GatheredMesh(const std::string& path, bool streamed, std::size_t vertices, std::size_t triangles)
+      : path_(path), streamed_(streamed), vertices_(vertices), triangles_(triangles) {}
+  void add_vertices(const TriangleMesh& batch) {
+    if (streamed_) {
+      if (!writer_) writer_.emplace(path_, vertices_, triangles_, batch);
+      writer_->add_vertices(batch);
+      return;
     }
-    write_vertices(part);
+    if (!started_) {
+      for (const Attribute& a : batch.attributes) mesh_.attributes.push_back({a.name, a.components, a.integer, {}});
+      started_ = true;
+    }
+    mesh_.vertices.insert(mesh_.vertices.end(), batch.vertices.begin(), batch.vertices.end());
+    mesh_.normals.insert(mesh_.normals.end(), batch.normals.begin(), batch.normals.end());
+    for (std::size_t a = 0; a < mesh_.attributes.size(); ++a)
+      mesh_.attributes[a].values.insert(mesh_.attributes[a].values.end(), batch.attributes[a].values.begin(),
+                                        batch.attributes[a].values.end());
   }
-  if (!writer) {  // no rank has a vertex: an empty mesh
-    writer.emplace(path, 0, 0, TriangleMesh{});
+  /// After the last vertex: `layout` for a mesh without any (its attribute names).
+  void vertices_done(const TriangleMesh& layout) {
+    if (streamed_ && !writer_) writer_.emplace(path_, vertices_, triangles_, layout);
+    if (!streamed_ && !started_) mesh_.attributes = layout.attributes;
+  }
+  void add_triangles(const std::vector<Triangle>& batch) {
+    if (streamed_)
+      writer_->add_triangles(batch.data(), batch.size());
+    else
+      mesh_.triangles.insert(mesh_.triangles.end(), batch.begin(), batch.end());
+  }
+  /// The PLY committed; or the whole mesh, to be written.
+  TriangleMesh finish() {
+    if (streamed_) writer_->commit();
+    return std::move(mesh_);
   }
 
-  // The triangles, rank by rank.
-  index.resolve(0, own.triangles, own.foreign);
-  writer->add_triangles(own.triangles.data(), own.triangles.size());
-  own = {};
-  for (int r = 1; r < ranks; ++r) {
-    uint64_t n[2] = {0, 0};
-    receive_raw(n, sizeof n, r, kPiece);
-    std::vector<Triangle> t(n[0]);
-    std::vector<Vec3f> foreign(n[1]);
-    receive_raw(t.data(), t.size() * sizeof(Triangle), r, kPiece);
-    receive_raw(foreign.data(), foreign.size() * sizeof(Vec3f), r, kPiece);
-    index.resolve(std::size_t(r), t, foreign);
-    writer->add_triangles(t.data(), t.size());
-  }
-  writer->commit();
-  return vertices;
-}
+ private:
+  std::string path_;
+  bool streamed_;
+  std::size_t vertices_, triangles_;
+  std::optional<io::PlyMeshWriter> writer_;
+  TriangleMesh mesh_;
+  bool started_ = false;
+};
 
 /// MPI_Allreduce as the frame-wide estimates' reductions (distributed.hpp).
 Reduce mpi_reduce() {
@@ -376,8 +407,9 @@ MpiSession::~MpiSession() {
 namespace {
 
 /// One frame surfaced by the ranks of a job, in phases (the stats name their times: read or
-/// read_parts, scatter or exchange, surface, gather_weld, gather_write or write_pieces, write). Every rank runs every phase; a phase
-/// returns false on every rank when one failed (each failing rank has printed why).
+/// read_parts, scatter or exchange, surface, gather_write, gather and write, or write_pieces).
+/// Every rank runs every phase; a phase returns false on every rank when one failed (each failing
+/// rank has printed why).
 class RankRun {
  public:
   RankRun(const MpiSession& session, const MpiJob& job)
@@ -424,6 +456,13 @@ class RankRun {
       });
     }
     if (!all_ok(error, rank_)) return false;
+    // The point the whole frame is computed about (reconstruct.hpp local_origin), from its
+    // bounding box over the parts: each slab is computed about it, as one process would.
+    double box[6] = {INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY};  // lo, −hi
+    for (const Vec3f& x : all_.positions)
+      for (int a = 0; a < 3; ++a) box[a] = std::min(box[a], double(x[a])), box[3 + a] = std::min(box[3 + a], -double(x[a]));
+    MPI_Allreduce(MPI_IN_PLACE, box, 6, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+    origin_ = local_origin({box[0], box[1], box[2]}, {-box[3], -box[4], -box[5]});
     stages_.emplace_back(in_parts_ ? "read_parts" : "read", seconds_since(t0_));
     double estimates[3] = {given.spacing, given.rest_density, given.velocity_reference};
     MPI_Bcast(estimates, 3, MPI_DOUBLE, 0, MPI_COMM_WORLD);
@@ -480,8 +519,8 @@ class RankRun {
   /// Every rank surfaces its slab and keeps the triangles it owns.
   bool surface_slab() {
     const auto t = std::chrono::steady_clock::now();
-    // A PLY output is written as the pieces come (each vertex once; rank 0 holds one piece at a
-    // time); other formats are welded whole on rank 0 first.
+    // A PLY output is written as the gather merges the pieces (rank 0 holds a chunk of each);
+    // other formats are gathered whole on rank 0 first.
     std::string extension = std::filesystem::path(job_.output).extension().string();
     std::transform(extension.begin(), extension.end(), extension.begin(),
                    [](unsigned char c) { return char(std::tolower(c)); });
@@ -489,25 +528,32 @@ class RankRun {
     report_.particles = double(slab_.size());
     const std::optional<std::string> error = attempt([&] {
       if (slab_.size() == 0) return;  // a slab without particles owns no triangle
-      result_ = reconstruct(slab_, given_);
-      keep_owned(result_.mesh, d_, rank_, streamed_ ? &seams_ : nullptr);
-      piece_ = std::move(result_.mesh);
+      if (job_.pieces) {
+        result_ = reconstruct_about(slab_, given_, origin_);
+        keep_owned(result_.mesh, d_, rank_);
+        piece_ = std::move(result_.mesh);
+      } else {
+        std::vector<VertexOrderKey> keys;
+        result_ = reconstruct_ordered(slab_, given_, keys, origin_);
+        part_ = ordered_part(std::move(result_.mesh), std::move(keys), d_, rank_);
+      }
       result_.mesh = {};
     });
     slab_ = {};
     report_.surface_seconds = seconds_since(t);
-    report_.owned_vertices = double(piece_.vertices.size());
-    report_.owned_triangles = double(piece_.triangles.size());
+    report_.owned_vertices =
+        double(job_.pieces ? piece_.vertices.size() : part_.written.vertices.size() + part_.foreign.size());
+    report_.owned_triangles = double(job_.pieces ? piece_.triangles.size() : part_.triangles.size());
     report_.removed_voids = double(result_.stats.removed_voids);
     report_.removed_blobs = double(result_.stats.removed_blobs);
     report_.dropped_triangles = double(result_.stats.dropped_triangles);
     return all_ok(error, rank_);
   }
 
-  /// The pieces to rank 0. --pieces: every rank writes its own; rank 0 the index. A PLY: streamed
-  /// to the file. Otherwise rank 0 welds the pieces as they come (PieceWelder): every piece's
-  /// positions first, then each piece's attributes and triangles, one piece at a time. Then the
-  /// ranks' reports to rank 0.
+  /// The pieces to rank 0. --pieces: every rank writes its own; rank 0 the index. Otherwise the
+  /// ordered gather: rank 0 merges the ranks' vertices, then their triangles, into one process's
+  /// order, chunk by chunk, writing a PLY as they come and holding the mesh for another format.
+  /// Then the ranks' reports to rank 0.
   bool gather_pieces() {
     const auto t = std::chrono::steady_clock::now();
     std::optional<std::string> error;
@@ -522,31 +568,15 @@ class RankRun {
       }
       if (!all_ok(error, rank_)) return false;
       piece_ = {};
-    } else if (streamed_) {
-      StreamPart part = stream_part(std::move(piece_), seams_, rank_);
-      piece_ = {}, seams_ = {};
-      const uint64_t mine[2] = {part.written.vertices.size(), part.triangles.size()};
-      std::vector<uint64_t> counts(2 * std::size_t(ranks_));
-      MPI_Gather(mine, 2, MPI_UINT64_T, counts.data(), 2, MPI_UINT64_T, 0, MPI_COMM_WORLD);
-      if (rank_ == 0) {
-        error = attempt([&] { streamed_vertices_ = write_streamed(job_.output, std::move(part), ranks_, counts); });
-      } else {
-        send_part(part, 0, kPiece);
-      }
-    } else if (rank_ == 0) {
-      error = attempt([&] { mesh_ = weld_pieces(); });
     } else {
-      send_piece_vertices(piece_, 0, kPiece);
-      send_piece_rest(piece_, 0, kPiece);
-      piece_ = {};
+      error = attempt([&] { gather_ordered_parts(); });
+      if (error) {
+        // Ranks are waiting on each other's messages: nothing is written, every rank stops.
+        fmt::print(stderr, "meniscus: rank {}: error: {}\n", rank_, *error);
+        MPI_Abort(MPI_COMM_WORLD, 1);
+      }
     }
-    if (error) {
-      // Only rank 0 can fail here, in the weld (pieces that do not fit together) or the streamed
-      // write, with ranks still waiting to send: nothing is written, every rank stops.
-      fmt::print(stderr, "meniscus: rank 0: error: {}\n", *error);
-      MPI_Abort(MPI_COMM_WORLD, 1);
-    }
-    stages_.emplace_back(job_.pieces ? "write_pieces" : streamed_ ? "gather_write" : "gather_weld", seconds_since(t));
+    stages_.emplace_back(job_.pieces ? "write_pieces" : streamed_ ? "gather_write" : "gather", seconds_since(t));
     report_.peak_bytes = double(peak_resident_bytes());
     reports_.resize(static_cast<std::size_t>(ranks_));
     MPI_Gather(&report_, kReportFields, MPI_DOUBLE, reports_.data(), kReportFields, MPI_DOUBLE, 0, MPI_COMM_WORLD);
@@ -556,7 +586,8 @@ class RankRun {
     return true;
   }
 
-  /// Rank 0 writes the welded mesh, the summary and the stats; every rank returns its exit code.
+  /// Rank 0 writes the gathered mesh (unless streamed), the summary and the stats; every rank
+  /// returns its exit code.
   int write_outputs() {
     int code = 0;
     if (rank_ == 0) {
@@ -571,51 +602,113 @@ class RankRun {
   }
 
  private:
-  TriangleMesh weld_pieces() {
-    PieceWelder welder(static_cast<std::size_t>(ranks_));
-    std::vector<PieceHead> heads(static_cast<std::size_t>(ranks_));
-    bool normals = piece_.normals.size() == piece_.vertices.size();
-    std::size_t triangles = piece_.triangles.size();
-    std::vector<Vec3f>().swap(piece_.normals);
-    welder.add_vertices(0, std::move(piece_.vertices));
-    for (int r = 1; r < ranks_; ++r) {
-      std::vector<Vec3f> positions;
-      heads[std::size_t(r)] = receive_piece_vertices(r, kPiece, positions);
-      normals = normals && heads[std::size_t(r)].normals;
-      triangles += heads[std::size_t(r)].triangles;
-      welder.add_vertices(std::size_t(r), std::move(positions));
+  /// The ordered gather (meniscus/distributed.hpp), every rank's side: rank 0 numbers the
+  /// vertices (its own part's from memory, the others' by message) and answers each rank with its
+  /// vertices' places; every rank places its part, the ranks agree on the normals' chunks and
+  /// exchange the terms of the seam vertices' normals; then rank 0 merges the ranks' vertices and
+  /// triangles by index into the mesh.
+  void gather_ordered_parts() {
+    std::optional<OrderedGather> gather;
+    VertexPlaces own, foreign;
+    const auto append = [&](VertexPlaces p) {
+      own.index.insert(own.index.end(), p.index.begin(), p.index.end());
+      own.first_triangle.insert(own.first_triangle.end(), p.first_triangle.begin(), p.first_triangle.end());
+    };
+    uint64_t totals[2] = {0, 0};  // vertices, triangles
+    if (rank_ == 0) {
+      gather.emplace(static_cast<std::size_t>(ranks_));
+      std::size_t next = 0;
+      totals[0] = gather->number_vertices(
+          [&](std::size_t r) {
+            if (r > 0) return unpack_key_chunk(receive_bytes(int(r), kKeys));
+            OrderedGather::KeyChunk c = key_chunk(part_, next);
+            next += c.keys.size();
+            return c;
+          },
+          [&](std::size_t r, VertexPlaces places) {
+            if (r > 0)
+              send_bytes(pack(places), int(r), kPlaced);
+            else
+              append(std::move(places));
+          });
+      totals[1] = gather->triangles();
+      for (int r = 1; r < ranks_; ++r)
+        send_bytes(pack(gather->seam_places(receive_array<VertexOrderKey>(r, kSeams))), r, kSeams);
+      foreign = gather->seam_places(part_.foreign);
+    } else {
+      for (std::size_t first = 0;; first += OrderedGather::kChunk) {
+        const OrderedGather::KeyChunk c = key_chunk(part_, first);
+        send_bytes(pack(c), 0, kKeys);
+        if (c.keys.empty()) break;
+        append(unpack_places(receive_bytes(0, kPlaced)));
+      }
+      send_array(part_.foreign, 0, kSeams);
+      foreign = unpack_places(receive_bytes(0, kSeams));
     }
-    welder.weld_vertices();
-    welder.reserve_triangles(triangles);
-    welder.add_attributes(0, piece_.attributes);
-    welder.add_triangles(0, piece_.triangles);
-    piece_ = {};
-    for (int r = 1; r < ranks_; ++r) {
-      PieceHead& h = heads[std::size_t(r)];
-      const std::vector<Triangle> t = receive_piece_rest(h, r, kPiece);
-      welder.add_attributes(std::size_t(r), h.attributes);
-      h = {};
-      welder.add_triangles(std::size_t(r), t);
+    MPI_Bcast(totals, 2, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+    const PlacedPart placed = place_part(part_, own, foreign);
+    own = {}, foreign = {};
+    std::vector<uint32_t> lo, hi;
+    normal_chunk_bounds(placed, std::size_t(totals[1]), lo, hi);
+    if (lo.size() > std::size_t(INT_MAX)) throw std::runtime_error("the gather: too many chunks of triangles");
+    MPI_Allreduce(MPI_IN_PLACE, lo.data(), int(lo.size()), MPI_UINT32_T, MPI_MIN, MPI_COMM_WORLD);
+    MPI_Allreduce(MPI_IN_PLACE, hi.data(), int(hi.size()), MPI_UINT32_T, MPI_MAX, MPI_COMM_WORLD);
+    const std::size_t stride = normal_stride(lo, hi);
+    gather_normals(part_, placed, stride, exchange_terms(foreign_terms(part_, placed, stride, ranks_), ranks_));
+    if (rank_ == 0) {
+      GatheredMesh out(job_.output, streamed_, std::size_t(totals[0]), std::size_t(totals[1]));
+      std::size_t next_vertex = 0, next_triangle = 0;
+      gather->merge_vertices(
+          [&](std::size_t r) {
+            if (r > 0) return unpack_vertex_chunk(receive_bytes(int(r), kVertices));
+            OrderedGather::VertexChunk c = vertex_chunk(part_, placed, next_vertex);
+            next_vertex += c.index.size();
+            return c;
+          },
+          [&](const TriangleMesh& batch) { out.add_vertices(batch); });
+      out.vertices_done(gather->layout());
+      part_ = {};
+      gather->merge_triangles(
+          [&](std::size_t r) {
+            if (r > 0) return unpack_triangle_chunk(receive_bytes(int(r), kTriangles));
+            OrderedGather::TriangleChunk c = triangle_chunk(placed, next_triangle);
+            next_triangle += c.index.size();
+            return c;
+          },
+          [&](const std::vector<Triangle>& batch) { out.add_triangles(batch); });
+      mesh_ = out.finish();
+      gathered_vertices_ = std::size_t(totals[0]);
+    } else {
+      for (std::size_t first = 0;; first += OrderedGather::kChunk) {
+        const OrderedGather::VertexChunk c = vertex_chunk(part_, placed, first);
+        send_bytes(pack(c), 0, kVertices);
+        if (c.index.empty()) break;
+      }
+      part_ = {};
+      for (std::size_t first = 0;; first += OrderedGather::kChunk) {
+        const OrderedGather::TriangleChunk c = triangle_chunk(placed, first);
+        send_bytes(pack(c), 0, kTriangles);
+        if (c.index.empty()) break;
+      }
     }
-    return welder.finish(normals);
   }
 
   void write_and_report() {
     const auto t4 = std::chrono::steady_clock::now();
     const Params p = result_.params.spacing > 0 ? result_.params : resolve_params(ParticleSet{{Vec3f{}}, {}}, given_);
-    // The counts: the welded mesh's, or with --pieces the pieces' sums (seam vertices in each piece).
+    // The counts: the gathered mesh's, or with --pieces the pieces' sums (seam vertices in each piece).
     std::size_t vertices = 0, triangles = 0;
     for (const RankReport& r : reports_)
       vertices += std::size_t(r.owned_vertices), triangles += std::size_t(r.owned_triangles);
     if (streamed_) {
-      vertices = streamed_vertices_;
+      vertices = gathered_vertices_;
       reports_[0].peak_bytes = double(peak_resident_bytes());  // rank 0's peak with the gather and the write
     } else if (!job_.pieces) {
-      vertices = mesh_.vertices.size();
+      vertices = gathered_vertices_;
       write_mesh(job_.output, mesh_);
       mesh_ = {};
       stages_.emplace_back("write", seconds_since(t4));
-      reports_[0].peak_bytes = double(peak_resident_bytes());  // rank 0's peak with the weld and the write
+      reports_[0].peak_bytes = double(peak_resident_bytes());  // rank 0's peak with the gather and the write
     }
     double total = 0, peak = 0;
     for (const auto& [name, s] : stages_) total += s;
@@ -691,11 +784,12 @@ class RankRun {
   bool in_parts_ = false, streamed_ = false;
   ParticleSet all_;  // rank 0's whole frame, or each rank's part
   Params given_;     // the job's parameters with the frame-wide estimates
-  std::size_t total_particles_ = 0, streamed_vertices_ = 0;
+  std::array<double, 3> origin_{};  // the whole frame's local origin
+  std::size_t total_particles_ = 0, gathered_vertices_ = 0;
   Decomposition d_;
   ParticleSet slab_;
-  Seams seams_;
-  TriangleMesh piece_, mesh_;
+  OrderedPart part_;          // the owned part for the ordered gather
+  TriangleMesh piece_, mesh_;  // the owned piece with --pieces; rank 0's gathered mesh (not a PLY)
   Result result_;
   RankReport report_;
   std::vector<RankReport> reports_;

@@ -1,6 +1,7 @@
 // meniscus — `meniscus surface` of one frame over the processes of an MPI job (mpirun, srun
-// --mpi=pmix): rank 0 reads and scatters slabs with their halos, every rank surfaces its slab, the
-// owned pieces are gathered and welded by rank 0 (meniscus/distributed.hpp; docs/cluster.md).
+// --mpi=pmix): the ranks read the frame (in parts, or rank 0 whole) and exchange slabs with their
+// halos, every rank surfaces its slab, and rank 0 gathers the owned pieces into one process's mesh
+// in its order (meniscus/distributed.hpp; docs/cluster.md).
 #pragma once
 
 #include <string>

@@ -65,6 +65,20 @@ int run_surface_ranks(const MpiSession& mpi, const SurfaceArgs& a) {
   if (!a.params.clip_box.empty() || a.params.decimate > 0)
     throw InvalidParameter("--clip-box and --decimate work on the whole mesh and are not available over MPI ranks: "
                            "surface in one process to use them");
+  // The gather puts the mesh in one process's order from the CPU extraction's vertex keys and the
+  // reorder's triangle order (meniscus/distributed.hpp: reconstruct_ordered).
+  if (!a.pieces && a.params.backend == Backend::cuda)
+    throw InvalidParameter("--backend cuda is not available over MPI ranks, whose mesh is one CPU process's bit for "
+                           "bit: use --backend cpu or auto (the ranks surface on the CPU), or --pieces");
+  if (!a.pieces && a.params.steps_a + a.params.steps_b + a.params.steps_free == 0)
+    throw InvalidParameter("no smoothing sweep (--steps-a, --steps-b and --steps-free all 0, or --smoothness 0) is not "
+                           "available over MPI ranks: without a sweep the triangles keep the extraction's block order, "
+                           "which the ranks' pieces cannot be gathered in; run at least one sweep, use --pieces, or "
+                           "surface in one process");
+  if (!a.pieces && a.params.erode > 0)
+    throw InvalidParameter("--erode is not available over MPI ranks: each rank would move its vertices along normals "
+                           "summed in its slab's triangle order, which rounds differently from one process's at a few "
+                           "vertices; use --pieces, or surface in one process");
   if (a.pieces && !a.output.ends_with(".pvtp"))
     throw InvalidParameter(fmt::format("--pieces: the output '{}' must be the .pvtp index of the pieces (big.pvtp → "
                                        "big_0.vtp, big_1.vtp …)", printable(a.output)));

@@ -1,9 +1,10 @@
 // meniscus — one frame over several processes (docs/cluster.md#one-frame-over-mpi): the frame is
 // cut into slabs along its longest axis, each process surfaces its slab plus a halo of particles
-// at least R_local wide (local_reach), keeps the triangles it owns, and the owned pieces weld into
-// the mesh one process makes of the whole frame, bit for bit. Plain functions on particles and
-// meshes: the MPI transport lives in the command-line tool, and the tests run the same steps
-// process by process in one.
+// at least R_local wide (local_reach) and keeps the triangles it owns. The owned pieces gather into
+// the mesh one process makes of the whole frame, bit for bit and in its vertex and triangle order
+// (OrderedGather), or weld into it in a canonical order (weld_pieces, for pieces written apart).
+// Plain functions on particles and meshes: the MPI transport lives in the command-line tool, and
+// the tests run the same steps process by process in one.
 #pragma once
 
 #include <array>
@@ -14,6 +15,7 @@
 #include "meniscus/mesh.hpp"
 #include "meniscus/params.hpp"
 #include "meniscus/particles.hpp"
+#include "meniscus/reconstruct.hpp"
 
 namespace meniscus {
 
@@ -73,56 +75,170 @@ ParticleSet slab_particles(const ParticleSet& particles, const Decomposition& d,
 /// whose centroid lies in its slab (each triangle of the whole frame's mesh is owned by exactly
 /// one rank) and the vertices they use, with their normals and attributes, in the mesh's order.
 TriangleMesh owned_piece(const TriangleMesh& mesh, const Decomposition& d, int rank);
-/// Where an owned piece's vertices meet the other pieces', for a gather that writes the pieces
-/// one after the other (each vertex once): per vertex of the piece, the lowest rank that owns a
-/// triangle on it (that rank writes it) and whether a higher rank owns one too (it will refer to
-/// it). From the rank's own halo mesh, where every owned vertex has its whole ring.
-struct Seams {
-  std::vector<int32_t> writer;
-  std::vector<uint8_t> shared_up;
-};
-
-/// owned_piece() in place: `mesh` becomes its owned piece, its arrays shrunk (no second copy);
-/// with `seams`, also the piece's seams.
-void keep_owned(TriangleMesh& mesh, const Decomposition& d, int rank, Seams* seams = nullptr);
-
-/// A rank's piece as the streamed gather sends it: the gathered mesh's vertices are the ranks'
-/// written vertices one rank after the other, then its triangles likewise, so the rank that
-/// writes holds one piece at a time, never the whole mesh.
-struct StreamPart {
-  TriangleMesh written;             ///< the vertices this rank writes (normals, attributes), in piece order; no triangles
-  std::vector<uint8_t> shared_up;   ///< per written vertex: a higher rank refers to it
-  std::vector<Triangle> triangles;  ///< < written count: its own vertices; written count + j: foreign[j]
-  std::vector<Vec3f> foreign;       ///< the positions of its vertices that lower ranks write
-};
-/// The piece (keep_owned with seams) split for the streamed gather; `piece` is consumed.
-StreamPart stream_part(TriangleMesh piece, const Seams& seams, int rank);
-
-/// The writing side of the streamed gather: numbers the parts' written vertices in the order they
-/// arrive and turns each part's triangles into indices of the gathered mesh, finding its foreign
-/// vertices among the shared vertices of the parts before it (bit-identical positions).
-class StreamIndex {
- public:
-  /// The next part's written vertices: they take the next indices. Returns the first.
-  std::size_t add_written(const std::vector<Vec3f>& positions, const std::vector<uint8_t>& shared_up);
-  /// Part `part`'s triangles (in add_written's order) in the gathered mesh's indices, in place.
-  /// Throws InvalidParameter when a foreign vertex was not written by an earlier part.
-  void resolve(std::size_t part, std::vector<Triangle>& triangles, const std::vector<Vec3f>& foreign);
-  std::size_t vertices() const { return next_; }
-
- private:
-  struct Shared {
-    std::array<uint32_t, 3> bits;
-    uint32_t index;
-  };
-  std::vector<Shared> shared_;
-  bool sorted_ = true;
-  std::vector<std::pair<std::size_t, std::size_t>> parts_;  // first index, count
-  std::size_t next_ = 0;
-};
+/// owned_piece() in place: `mesh` becomes its owned piece, its arrays shrunk (no second copy).
+void keep_owned(TriangleMesh& mesh, const Decomposition& d, int rank);
 
 /// The rank that owns a triangle whose centroid is at `c` along the axis.
 int owner_of(const Decomposition& d, double c);
+
+// --- The ordered gather: the ranks' pieces as one process's mesh, in one process's order ---------
+
+/// Where a vertex comes in the mesh one process makes of a frame (docs/method.md, `extract` and
+/// `reorder`). The extraction numbers the vertices by the key of the lattice edge each lies on; the
+/// reorder, when any sweep runs, renumbers them by the Z-order code of their extracted position on
+/// the lattice's cells anchored at the origin, ties in edge-key order. Both are functions of the
+/// vertex alone, so one process's vertices are in increasing key order, and a rank's surface of
+/// its slab gives a vertex the key the whole frame's mesh gives it.
+struct VertexOrderKey {
+  uint64_t morton = 0;  ///< the Z-order code of the extracted position (0 when no sweep runs)
+  uint64_t edge = 0;    ///< the key of the vertex's lattice edge (extract/edge_key.hpp)
+  auto operator<=>(const VertexOrderKey&) const = default;
+};
+
+/// reconstruct() with each vertex's order key (`keys[v]` for mesh vertex v, strictly increasing):
+/// what a rank runs on its slab. Runs the CPU backend whatever `params.backend` says but cuda,
+/// which it refuses (InvalidParameter: the keys come from the CPU's extraction, and the CUDA
+/// backend's positions agree with the CPU's to rounding, not bit for bit). Also refuses a
+/// schedule without sweeps (steps_a, steps_b and steps_free all 0): the triangles are then in the
+/// extraction's block order, which vertex keys do not give; and erosion, whose normals are summed
+/// in the slab's triangle order (mesh/normals.hpp), which rounds differently from the whole
+/// frame's at a few vertices. `origin`: the whole frame's local_origin (reconstruct.hpp), so that
+/// a slab of a frame far from the origin is computed about the point the whole frame would be.
+Result reconstruct_ordered(const ParticleSet& particles, const Params& params, std::vector<VertexOrderKey>& keys,
+                           const std::array<double, 3>& origin = {});
+
+/// A rank's owned piece as the ordered gather takes it. Each vertex of the piece is written by the
+/// lowest rank that owns a triangle on it (which a rank knows from its own slab's mesh, where the
+/// vertex has its whole ring); the others are the piece's foreign vertices.
+struct OrderedPart {
+  TriangleMesh written;                 ///< the vertices this rank writes (positions, attributes), in order; no triangles
+  std::vector<VertexOrderKey> keys;     ///< per written vertex
+  std::vector<uint8_t> shared_up;       ///< per written vertex: a higher rank owns a triangle on it
+  std::vector<uint32_t> runs;           ///< per written vertex: the slab's triangles whose smallest vertex it is
+  std::vector<Triangle> triangles;      ///< owned, in order: < written count its own vertices, written count + j foreign[j]
+  std::vector<uint32_t> ties;           ///< per triangle: the slab's triangles before it with its smallest vertex
+  std::vector<Vec3f> crosses;           ///< per triangle: its corners' cross product, its term of the vertex normals
+  std::vector<VertexOrderKey> foreign;  ///< the keys of its vertices that lower ranks write
+  std::vector<int32_t> foreign_writer;  ///< per foreign vertex: the rank that writes it
+};
+
+/// The owned part of rank `rank`'s surface of its slab (`mesh` and `keys` from reconstruct_ordered,
+/// consumed). One process sorts its triangles by their smallest vertex, ties in the extraction's
+/// order, which is their order in the slab's mesh too (`ties`), so a triangle's place is the first
+/// place of its smallest vertex's run plus its tie. Throws std::logic_error when the mesh is not in
+/// that order (keys not increasing, triangles not sorted by their smallest vertex).
+OrderedPart ordered_part(TriangleMesh mesh, std::vector<VertexOrderKey> keys, const Decomposition& d, int rank);
+
+/// Where vertices go in the gathered mesh: their index, and the index of the first triangle whose
+/// smallest vertex each is (the triangles before it: the runs of the vertices before it).
+struct VertexPlaces {
+  std::vector<uint32_t> index;
+  std::vector<uint32_t> first_triangle;
+};
+
+/// A part in the gathered mesh's numbering (place_part).
+struct PlacedPart {
+  std::vector<uint32_t> vertex_index;    ///< per written vertex
+  std::vector<Triangle> triangles;       ///< the owned triangles' corners in the gathered mesh
+  std::vector<uint32_t> triangle_index;  ///< per owned triangle: its index in the gathered mesh
+};
+/// The part's vertices and triangles in the gathered mesh's numbering, from the places of its own
+/// vertices and of its foreign ones (the writers'). Throws InvalidParameter when the sizes do not
+/// match or a triangle's place lies past its vertex's run.
+PlacedPart place_part(const OrderedPart& part, const VertexPlaces& own, const VertexPlaces& foreign);
+
+/// One process's vertex normals, in pieces (mesh/normals.hpp: each vertex adds its triangles'
+/// terms in the order (chunk of kNormalChunk triangles mod the waves' stride, triangle index)).
+/// normal_chunk_bounds: the smallest and largest corner of the part's triangles in each chunk of
+/// the gathered mesh's `triangles` (UINT32_MAX and 0 where it has none); their element-wise minimum
+/// and maximum over the parts give the stride (normal_stride).
+void normal_chunk_bounds(const PlacedPart& placed, std::size_t triangles, std::vector<uint32_t>& lo,
+                         std::vector<uint32_t>& hi);
+std::size_t normal_stride(const std::vector<uint32_t>& lo, const std::vector<uint32_t>& hi);
+
+/// One triangle's term of a vertex normal: the vertex, where the term comes in its sum, the term.
+struct NormalTerm {
+  VertexOrderKey vertex;
+  uint64_t order = 0;  ///< (chunk mod stride) · 2^32 + triangle index
+  Vec3f cross;
+  uint32_t unused = 0;
+};
+/// The terms of the part's triangles at its foreign vertices, per rank that writes them (`ranks` lists).
+std::vector<std::vector<NormalTerm>> foreign_terms(const OrderedPart& part, const PlacedPart& placed,
+                                                   std::size_t stride, int ranks);
+/// The written vertices' normals (part.written.normals): the part's own terms and `received` (the
+/// other parts' terms at its vertices) summed in one process's order, then normalised. Throws
+/// InvalidParameter for a term at a vertex the part does not write.
+void gather_normals(OrderedPart& part, const PlacedPart& placed, std::size_t stride, std::vector<NormalTerm> received);
+
+/// The gathering side of the ordered gather (rank 0), fed chunk by chunk so that it holds a chunk of
+/// each part and the seam vertices, never the whole mesh. First it numbers the vertices: it merges
+/// the parts' keys (one process's vertex order) and gives each vertex its index and its first
+/// triangle's. Then, once every part knows its places, it merges the parts' vertices and triangles
+/// by index. Throws InvalidParameter when the parts do not fit together (a vertex written twice,
+/// an index missing or given twice, a seam vertex nobody wrote, chunks with different attributes).
+class OrderedGather {
+ public:
+  /// The next run of a part's written vertices' keys, seam flags and runs; none at the part's end.
+  struct KeyChunk {
+    std::vector<VertexOrderKey> keys;
+    std::vector<uint8_t> shared_up;
+    std::vector<uint32_t> runs;
+  };
+  /// The next run of a part's written vertices (positions, normals, attributes) with their indices;
+  /// none at the part's end.
+  struct VertexChunk {
+    std::vector<uint32_t> index;
+    TriangleMesh vertices;
+  };
+  /// The next run of a part's triangles (in the gathered mesh's numbering) with their indices.
+  struct TriangleChunk {
+    std::vector<uint32_t> index;
+    std::vector<Triangle> triangles;
+  };
+  /// At most this many vertices or triangles in a chunk and in a batch given to emit.
+  static constexpr std::size_t kChunk = std::size_t(1) << 16;
+
+  explicit OrderedGather(std::size_t parts);
+  /// Pulls each part's key chunks with next(part), in order; when a chunk is used up, placed(part,
+  /// places) gets its vertices' places, before next(part) is asked for the part's next chunk.
+  /// Returns the vertex count.
+  std::size_t number_vertices(const std::function<KeyChunk(std::size_t)>& next,
+                              const std::function<void(std::size_t, VertexPlaces)>& placed);
+  /// The places of vertices that a higher rank refers to, by their keys (after number_vertices).
+  VertexPlaces seam_places(const std::vector<VertexOrderKey>& keys) const;
+  /// The triangle count: the sum of every vertex's run (after number_vertices).
+  std::size_t triangles() const { return triangles_; }
+  /// Merges the parts' vertex chunks by index into batches given to emit, in order.
+  void merge_vertices(const std::function<VertexChunk(std::size_t)>& next,
+                      const std::function<void(const TriangleMesh&)>& emit);
+  /// Merges the parts' triangle chunks by index into batches given to emit, in order.
+  void merge_triangles(const std::function<TriangleChunk(std::size_t)>& next,
+                       const std::function<void(const std::vector<Triangle>&)>& emit);
+  /// The attribute names and components (no values) and normals or not of the first chunk with
+  /// vertices, or of one without (a part with none to write): the layout of the gathered mesh.
+  const TriangleMesh& layout() const { return layout_; }
+
+ private:
+  std::size_t parts_, vertices_ = 0, triangles_ = 0;
+  TriangleMesh layout_;
+  bool has_layout_ = false;
+  struct Seam {
+    VertexOrderKey key;
+    uint32_t index, first_triangle;
+  };
+  std::vector<Seam> seams_;  // sorted by key after number_vertices
+};
+
+/// Part `part`'s chunks from `first` on (none past its end): its keys, and once placed its vertices
+/// and triangles.
+OrderedGather::KeyChunk key_chunk(const OrderedPart& part, std::size_t first);
+OrderedGather::VertexChunk vertex_chunk(const OrderedPart& part, const PlacedPart& placed, std::size_t first);
+OrderedGather::TriangleChunk triangle_chunk(const PlacedPart& placed, std::size_t first);
+
+/// The whole ordered gather in one process, from every part: one process's mesh of the frame, bit
+/// for bit and in its order, normals and attributes included.
+TriangleMesh gather_ordered(std::vector<OrderedPart> parts);
 
 /// Welds pieces into one mesh: vertices that coincide bit for bit are one vertex (the seams' are
 /// computed identically by every rank that has them). The result is in a canonical order —

@@ -100,6 +100,10 @@ Result reconstruct(const ParticleSet& particles, const Params& params, const Pro
 /// to a grid of the power of two at least its extent. `lo`, `hi`: the frame's bounding box.
 std::array<double, 3> local_origin(const std::array<double, 3>& lo, const std::array<double, 3>& hi);
 
+/// local_origin() of the particles reconstruct() surfaces (those in params.particle_box, if one
+/// is given).
+std::array<double, 3> frame_origin(const ParticleSet& particles, const Params& params);
+
 /// reconstruct() about a given origin: a part of a frame (an MPI rank's slab) is computed about
 /// the whole frame's local_origin, so that every part rounds as the whole frame would.
 Result reconstruct_about(const ParticleSet& particles, const Params& params, const std::array<double, 3>& origin,

@@ -17,6 +17,10 @@ namespace meniscus {
 struct ExtractResult {
   TriangleMesh mesh;                  ///< vertices + triangles (no normals/attributes)
   std::size_t dropped_triangles = 0;  ///< triangles removed because two corners welded together
+  /// Each vertex's edge key (edge_key.hpp), ascending, when asked for: the vertex's identity on the
+  /// lattice, the same in any extraction whose field agrees on its edge (a slab of a frame and the
+  /// whole frame), which orders one process's mesh for the MPI gather (meniscus/distributed.hpp).
+  std::vector<uint64_t> vertex_keys;
 };
 
 /// Triangulates the level set {φ = iso} of `field`. Triangles are counter-clockwise seen from
@@ -33,8 +37,8 @@ struct ExtractResult {
 /// Throws InvalidParameter (lattice/extractor mismatch, iso not finite, background ≤ iso) and
 /// ResourceError when an allocated block, with one block and 2 cells of margin, lies outside the
 /// range of the 64-bit edge keys (|cell| ≤ 2^18 − 1 on each axis, edge_key.hpp) or the mesh would
-/// need 2^32 or more vertices.
-ExtractResult extract_surface(const SparseField& field, float iso, Extractor extractor);
+/// need 2^32 or more vertices. With `vertex_keys`, also each vertex's edge key (8 bytes a vertex).
+ExtractResult extract_surface(const SparseField& field, float iso, Extractor extractor, bool vertex_keys = false);
 
 inline constexpr float kEdgeClamp = 1e-3f;
 

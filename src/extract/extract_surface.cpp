@@ -12,7 +12,7 @@
 
 namespace meniscus {
 
-ExtractResult extract_surface(const SparseField& field, float iso, Extractor extractor) {
+ExtractResult extract_surface(const SparseField& field, float iso, Extractor extractor, bool vertex_keys) {
   if (!std::isfinite(iso)) throw InvalidParameter(fmt::format("extract_surface: iso value {} is not finite", iso));
   // Unallocated space must read as outside, otherwise the surface would not close at the band.
   if (!(field.background() > iso))
@@ -38,7 +38,7 @@ ExtractResult extract_surface(const SparseField& field, float iso, Extractor ext
       corners = march_tetrahedra(field, iso);
       break;
   }
-  return weld_edge_keys(std::move(corners), field, iso);
+  return weld_edge_keys(std::move(corners), field, iso, vertex_keys);
 }
 
 }  // namespace meniscus

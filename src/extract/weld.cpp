@@ -276,7 +276,7 @@ void weld_packed(std::vector<uint64_t>& corner_keys, const DenseEdgeKeys& dense,
 /// mesh as sorting all the corners' keys (weld_packed; tested), without the sort, its scratch
 /// copy, the packed keys or the per-vertex key array, and the positions are computed where the
 /// block's field values are at hand: about half the time and a lower peak than the sort.
-void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, ExtractResult& result) {
+void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, bool with_keys, ExtractResult& result) {
   TriangleMesh& mesh = result.mesh;
   const std::size_t blocks = m.origins.size();
   const int n = m.block_cells;
@@ -362,6 +362,8 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
   // random reads would like) the first surfacing after a pause can stall in the kernel's
   // compaction for them (bench/RESULTS.md#caveats), and the later passes gain no time from them.
   resize_populated(mesh.vertices, std::size_t(slab_start.back()));
+  std::vector<uint64_t>& edge_key_of_vertex = result.vertex_keys;
+  if (with_keys) resize_populated(edge_key_of_vertex, mesh.vertices.size());
   const SampleLattice& lattice = field.lattice();
   const std::size_t repeated = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, blocks), std::size_t(0),
@@ -415,8 +417,10 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
               for (int x = 0; x < n; ++x) {
                 const Vec3i c0 = m.origins[b] + Vec3i{x, y, z};
                 for (uint64_t bits = m.crossings(b, (std::size_t(z) * n + y) * n + x); bits != 0; bits &= bits - 1) {
-                  const LatticeEdge& e = m.edge_types[std::countr_zero(bits)];
+                  const int type = std::countr_zero(bits);
+                  const LatticeEdge& e = m.edge_types[type];
                   const Vec3i c1{c0.x + e.dx, c0.y + e.dy, c0.z + e.dz};
+                  if (with_keys) edge_key_of_vertex[v] = edge_key(c0, type);
                   mesh.vertices[v++] = edge_vertex(lattice.sample_position(c0, e.s0), lattice.sample_position(c1, e.s1),
                                                    value(c0, e.s0), value(c1, e.s1), iso, kEdgeClamp);
                 }
@@ -428,7 +432,19 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, Extra
       std::plus<>());
   m = MarchedCorners();  // the pages, given back before the voids and smoothing allocate
   give_back_free_heap_pages();
-  if (repeated > 0) result.dropped_triangles = drop_repeated(mesh);
+  if (repeated == 0) return;
+  if (with_keys) {  // the keys of the vertices that a triangle without a repeated corner uses
+    std::vector<uint64_t>& vertex_keys = result.vertex_keys;
+    std::vector<uint8_t> used(vertex_keys.size(), 0);
+    for (const Triangle& t : mesh.triangles)
+      if (t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+        for (const uint32_t v : t) used[v] = 1;
+    std::size_t kept = 0;
+    for (std::size_t v = 0; v < vertex_keys.size(); ++v)
+      if (used[v]) vertex_keys[kept++] = vertex_keys[v];
+    vertex_keys.resize(kept);
+  }
+  result.dropped_triangles = drop_repeated(mesh);
 }
 
 /// Fallback for fields whose cells span so much of the key range (components near opposite
@@ -486,14 +502,14 @@ ExtractResult weld_edge_keys(std::vector<uint64_t> corner_keys, const SparseFiel
   return result;
 }
 
-ExtractResult weld_edge_keys(MarchedCorners marched, const SparseField& field, float iso) {
+ExtractResult weld_edge_keys(MarchedCorners marched, const SparseField& field, float iso, bool vertex_keys) {
   const std::size_t blocks = marched.origins.size();
   if (marched.triangle_offsets.size() != blocks + 1 || marched.edge_offsets.size() != blocks + 1 ||
       marched.block_edges.size() != blocks || marched.block_corners.size() != blocks ||
       marched.block_crossings.size() != blocks || marched.edge_types == nullptr)
     throw std::logic_error("weld_edge_keys: the block offsets do not match the blocks");
   ExtractResult result;
-  weld_numbered(marched, field, iso, result);
+  weld_numbered(marched, field, iso, vertex_keys, result);
   return result;
 }
 

@@ -23,7 +23,8 @@ ExtractResult weld_edge_keys(std::vector<uint64_t> corner_keys, const SparseFiel
 
 /// The same mesh from the marching stages' output, using its block structure: each block has
 /// merged its own corners, and the vertices — the crossing edges the marching recorded per cell —
-/// are numbered in key order from per-row counts, so no key is sorted at all.
-ExtractResult weld_edge_keys(MarchedCorners marched, const SparseField& field, float iso);
+/// are numbered in key order from per-row counts, so no key is sorted at all. With `vertex_keys`,
+/// the result also lists each vertex's edge key (ExtractResult::vertex_keys).
+ExtractResult weld_edge_keys(MarchedCorners marched, const SparseField& field, float iso, bool vertex_keys = false);
 
 }  // namespace meniscus

@@ -11,16 +11,7 @@
 
 namespace meniscus {
 
-namespace {
-
-/// Triangles per chunk of the normals' scatter: a chunk is the unit of work and of the order of
-/// the sums, the same for any number of threads.
-constexpr std::size_t kNormalChunk = std::size_t(1) << 16;
-
-/// How many consecutive chunks must lie between two chunks for their vertex sets to be disjoint:
-/// the smallest w with max(hi[..c]) < min(lo[c + w..]) for every c, from each chunk's smallest
-/// and largest corner (at most the number of chunks: one chunk at a time).
-std::size_t disjoint_stride(std::span<const uint32_t> lo, std::span<const uint32_t> hi) {
+std::size_t normal_wave_stride(std::span<const uint32_t> lo, std::span<const uint32_t> hi) {
   const std::size_t chunks = lo.size();
   std::vector<uint32_t> suffix_lo(chunks + 1, UINT32_MAX);
   for (std::size_t c = chunks; c-- > 0;) suffix_lo[c] = std::min(suffix_lo[c + 1], lo[c]);
@@ -35,11 +26,9 @@ std::size_t disjoint_stride(std::span<const uint32_t> lo, std::span<const uint32
   return std::min(stride, std::max<std::size_t>(chunks, 1));
 }
 
-}  // namespace
-
 std::vector<Vec3f> vertex_normals(std::span<const Vec3f> x, std::span<const Triangle> triangles) {
   // Each triangle's (area-weighted) cross product scattered onto its corners, chunk by chunk, in
-  // waves of chunks far enough apart (disjoint_stride) that no two of a wave share a vertex: a
+  // waves of chunks far enough apart (normal_wave_stride) that no two of a wave share a vertex: a
   // wave runs in parallel without atomics, and every vertex takes its terms in the same order
   // whatever the threads (chunk order within a wave, wave order across). Cheaper than building
   // the vertex → triangle incidence for a gather. A mesh in spatial order has a short stride (the
@@ -61,7 +50,7 @@ std::vector<Vec3f> vertex_normals(std::span<const Vec3f> x, std::span<const Tria
     lo[c] = l;
     hi[c] = h;
   });
-  const std::size_t stride = disjoint_stride(lo, hi);
+  const std::size_t stride = normal_wave_stride(lo, hi);
   // The corners of the triangle kAhead on are prefetched: the extraction's triangles come block
   // by block while its vertices are in row order, so a block's corners are spread over a dozen
   // rows of the arrays. The triangles themselves stream in with software prefetch

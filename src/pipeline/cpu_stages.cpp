@@ -40,7 +40,7 @@ class CpuStages final : public StageBackend {
  public:
   CpuStages(const PipelineInput& in, Stats& stats, const ProgressFn& progress)
       : particles_(in.particles), p_(in.params), plan_(in.plan), volumes_(in.volumes), velocity_(in.velocity),
-        stats_(stats), progress_(progress), timer_(stats, progress) {}
+        order_keys_(in.order_keys), stats_(stats), progress_(progress), timer_(stats, progress) {}
 
   void timed(const char* name, const std::function<void()>& stage) override { timer_.run(name, stage); }
 
@@ -100,10 +100,15 @@ class CpuStages final : public StageBackend {
   }
 
   void extract() override {
-    ExtractResult extracted = extract_surface(*field_, plan_.iso, plan_.extractor);
+    ExtractResult extracted = extract_surface(*field_, plan_.iso, plan_.extractor, order_keys_);
     field_.reset();
     stats_.dropped_triangles = extracted.dropped_triangles;
     mesh_ = std::move(extracted.mesh);
+    // The order keys ride with their vertices from here on; the Z-order code is the reorder's,
+    // of these (extracted) positions, which the voids and blobs do not move.
+    if (order_keys_)
+      mesh_.attributes.push_back(order_key_attribute(mesh_.vertices, extracted.vertex_keys,
+                                                     plan_.sweeps ? float(plan_.lattice.cell_size) : 0.0f));
   }
 
   void voids() override { stats_.removed_voids = remove_small_voids(mesh_, plan_.void_volume); }
@@ -162,6 +167,7 @@ class CpuStages final : public StageBackend {
   const StagePlan& plan_;
   const std::vector<float>& volumes_;
   const Attribute* velocity_;
+  const bool order_keys_;
   Stats& stats_;
   const ProgressFn& progress_;
   StageTimer timer_;

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <stdexcept>
 #include <string>
 
 #include <fmt/format.h>
@@ -17,6 +18,7 @@
 #include "post/decimate.hpp"
 #include "mesh/voids.hpp"
 #include "meniscus/backend.hpp"
+#include "meniscus/distributed.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/memory.hpp"
 #include "meniscus/messages.hpp"
@@ -198,20 +200,12 @@ std::array<double, 3> local_origin(const std::array<double, 3>& lo, const std::a
   return origin;
 }
 
-Result reconstruct(const ParticleSet& all_particles, const Params& params, const ProgressFn& progress) {
-  if (params.particle_box.empty()) {
-    const auto [lo, hi] = bounds_of(all_particles);
-    return reconstruct_about(all_particles, params, local_origin(lo, hi), progress);
-  }
-  params.validate();
-  ParticleSet boxed = all_particles;
-  keep_particles_in_box(boxed, params.particle_box);
-  const auto [lo, hi] = bounds_of(boxed);
-  return reconstruct_about(all_particles, params, local_origin(lo, hi), progress);
-}
+namespace {
 
-Result reconstruct_about(const ParticleSet& all_particles, const Params& params, const std::array<double, 3>& o,
-                         const ProgressFn& progress) {
+/// reconstruct() about `o` (local_origin); with `keys`, on the CPU's stages with the vertices'
+/// order keys (reconstruct_ordered).
+Result reconstruct_keyed(const ParticleSet& all_particles, const Params& params, const std::array<double, 3>& o,
+                         const ProgressFn& progress, std::vector<VertexOrderKey>* keys) {
   // --particle-box: the particles outside are ignored before anything else.
   ParticleSet boxed;
   std::size_t outside = 0;
@@ -261,12 +255,13 @@ Result reconstruct_about(const ParticleSet& all_particles, const Params& params,
                                          ? particle_volumes(particles, p.spacing, p.rest_density)
                                          : std::vector<float>{};
   const StagePlan plan = plan_stages(p);  // both backends run these stages, in run_stages' order
-  const PipelineInput in{particles, p, plan, volumes, velocity};
-  if (!run_on_device(in, result, progress)) {
+  const PipelineInput in{particles, p, plan, volumes, velocity, keys != nullptr};
+  if (keys != nullptr || !run_on_device(in, result, progress)) {
     stats.backend = "cpu";
     run_stages(plan, *make_cpu_stages(in, stats, progress), result.mesh);
   }
   post_process(plan, particles, result, progress);
+  if (keys != nullptr) *keys = take_order_keys(result.mesh);
   if (origin.shifted()) {
     for (Vec3f& v : result.mesh.vertices)
       v = Vec3f{float(double(v.x) + origin.x), float(double(v.y) + origin.y), float(double(v.z) + origin.z)};
@@ -294,6 +289,49 @@ Result reconstruct_about(const ParticleSet& all_particles, const Params& params,
   stats.vertices = result.mesh.vertices.size();
   stats.triangles = result.mesh.triangles.size();
   stats.peak_memory_bytes = peak_resident_bytes();
+  return result;
+}
+
+}  // namespace
+
+std::array<double, 3> frame_origin(const ParticleSet& particles, const Params& params) {
+  if (params.particle_box.empty()) {
+    const auto [lo, hi] = bounds_of(particles);
+    return local_origin(lo, hi);
+  }
+  params.validate();
+  ParticleSet boxed = particles;
+  keep_particles_in_box(boxed, params.particle_box);
+  const auto [lo, hi] = bounds_of(boxed);
+  return local_origin(lo, hi);
+}
+
+Result reconstruct(const ParticleSet& particles, const Params& params, const ProgressFn& progress) {
+  return reconstruct_keyed(particles, params, frame_origin(particles, params), progress, nullptr);
+}
+
+Result reconstruct_about(const ParticleSet& particles, const Params& params, const std::array<double, 3>& origin,
+                         const ProgressFn& progress) {
+  return reconstruct_keyed(particles, params, origin, progress, nullptr);
+}
+
+Result reconstruct_ordered(const ParticleSet& particles, const Params& params, std::vector<VertexOrderKey>& keys,
+                           const std::array<double, 3>& origin) {
+  if (params.backend == Backend::cuda)
+    throw InvalidParameter("backend cuda: a rank of an MPI job surfaces its slab on the CPU, whose extraction gives the "
+                           "vertices' order keys (and the CUDA backend's positions agree with the CPU's to rounding, "
+                           "not bit for bit); use --backend cpu or auto");
+  if (params.steps_a + params.steps_b + params.steps_free == 0)
+    throw InvalidParameter("steps_a, steps_b and steps_free all 0: without a sweep the triangles stay in the "
+                           "extraction's block order, which the ranks' pieces cannot be gathered in; run at least "
+                           "one sweep, or surface in one process");
+  if (params.erode > 0)
+    throw InvalidParameter("erode: the erosion moves each vertex along a normal summed in the slab's triangle order, "
+                           "which rounds differently from the whole frame's at a few vertices");
+  Result result = reconstruct_keyed(particles, params, origin, {}, &keys);
+  for (std::size_t v = 1; v < keys.size(); ++v)
+    if (!(keys[v - 1] < keys[v]))
+      throw std::logic_error(fmt::format("reconstruct_ordered: vertices {} and {} are not in their keys' order", v - 1, v));
   return result;
 }
 

@@ -18,6 +18,7 @@
 namespace meniscus {
 
 struct SampleLattice;
+struct VertexOrderKey;
 
 // --- resolve.cpp: the inputs and the frame-wide estimates ---------------------------------------
 
@@ -66,6 +67,22 @@ std::vector<T> to_sorted_order(const HashGrid& grid, const std::vector<T>& origi
 /// Returns the band's block keys (band_blocks).
 std::vector<uint64_t> checked_band_blocks(const HashGrid& grid, const SampleLattice& lattice, float band,
                                           double max_bytes, const Params& p, const std::string& limit_from);
+
+// --- order_keys.cpp: the vertex order keys of reconstruct_ordered (meniscus/distributed.hpp) ------
+
+/// The integer attribute that carries each vertex's order key through the CPU stages from the
+/// extraction on (the voids, blobs, reorder and strays move attributes with their vertices);
+/// reconstruct_ordered takes it off the mesh. Four integer values under 2^24, exact as floats
+/// (16 bytes a vertex): the 63-bit edge key and the 30-bit Z-order code above it.
+inline constexpr const char* kOrderKeyAttribute = "meniscus order key";
+
+/// The attribute for the extracted vertices `positions` and their edge keys: the Z-order code is
+/// morton_key's on cells of `cell` (the reorder's), or 0 with cell 0 (no sweep: no reorder).
+Attribute order_key_attribute(std::span<const Vec3f> positions, const std::vector<uint64_t>& edge_keys, float cell);
+
+/// The keys of the mesh's order-key attribute, which is removed from the mesh (std::logic_error
+/// without one).
+std::vector<VertexOrderKey> take_order_keys(TriangleMesh& mesh);
 
 // --- the host's stage timer (driver.cpp, cpu_stages.cpp) -------------------------------------------
 

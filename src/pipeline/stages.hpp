@@ -14,13 +14,15 @@ namespace meniscus {
 
 /// What the stages of either backend work from: the particles, the resolved parameters, their
 /// plan, the SPH volumes per original particle (empty: uniform d³) and the particles' velocity
-/// attribute (null without one).
+/// attribute (null without one); with `order_keys` (the CPU's stages only), the extraction adds
+/// the vertices' order-key attribute (kOrderKeyAttribute, reconstruct_ordered).
 struct PipelineInput {
   const ParticleSet& particles;
   const Params& params;
   const StagePlan& plan;
   const std::vector<float>& volumes;
   const Attribute* velocity;
+  bool order_keys = false;
 };
 
 /// A backend's side of the plan: one function per stage. run_stages calls them in the plan's

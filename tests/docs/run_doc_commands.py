@@ -41,8 +41,7 @@ from doc_blocks import fenced  # noqa: E402
 
 RUN_BY_CI = {"README.md": 2}  # page → how many leading `sh` blocks .ci/run runs instead
 # Pages left out, with the reason (printed on every run).
-EXCLUDED = {"docs/cluster.md": "its blocks use a shot's files (sim/, mesh/, big.bgeo) and a Slurm farm; "
-                               "tests/cluster/ runs what they describe on a cluster it starts"}
+EXCLUDED = {}
 LANGUAGES = {"sh", "python", "text", "json", "cmake", "cpp", "vex", "ini"}  # what a fence may say
 SHELLS = {"bash", "shell", "console", "zsh", "shell-session"}  # refused: command blocks are `sh`
 PREFIX = "/usr/local"  # the README's install prefix (CMake's default)

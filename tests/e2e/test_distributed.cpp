@@ -32,7 +32,9 @@ struct Split {
   std::size_t piece_triangles = 0;
 };
 
-/// Surfaces `particles` whole and in `ranks` slabs; expects the weld of the slabs' pieces to be
+/// Surfaces `particles` in `ranks` slabs; expects the ordered gather of the slabs' parts to be
+/// `whole` (one process's mesh of the frame) array for array — the same vertices, normals,
+/// attributes and triangles in the same order, bit for bit — and the weld of their pieces to be
 /// the whole frame's mesh in canonical order, bit for bit, closed and manifold.
 Split expect_split_matches(const ParticleSet& particles, Params given, int ranks, const TriangleMesh& whole,
                            const std::string& what) {
@@ -42,7 +44,7 @@ Split expect_split_matches(const ParticleSet& particles, Params given, int ranks
   EXPECT_EQ(int(d.cuts.size()), ranks - 1) << what;
   EXPECT_GE(d.halo, local_reach(p)) << what;
   std::vector<TriangleMesh> pieces;
-  std::vector<StreamPart> parts;
+  std::vector<OrderedPart> parts;
   Split s;
   for (int r = 0; r < ranks; ++r) {
     const ParticleSet slab = slab_particles(particles, d, r);
@@ -52,30 +54,24 @@ Split expect_split_matches(const ParticleSet& particles, Params given, int ranks
       parts.emplace_back();
       continue;
     }
-    TriangleMesh piece = reconstruct(slab, given).mesh;
-    Seams seams;
-    keep_owned(piece, d, r, &seams);
-    parts.push_back(stream_part(piece, seams, r));
-    pieces.push_back(std::move(piece));
+    std::vector<VertexOrderKey> keys;
+    TriangleMesh mesh = reconstruct_ordered(slab, given, keys).mesh;
+    pieces.push_back(owned_piece(mesh, d, r));
+    parts.push_back(ordered_part(std::move(mesh), std::move(keys), d, r));
     s.piece_triangles += pieces.back().triangles.size();
   }
-  // The streamed gather (each vertex written once, by the lowest rank on it; rank by rank): the
-  // same surface, every seam reference found.
-  StreamIndex index;
-  TriangleMesh streamed;
-  for (const StreamPart& part : parts) {
-    index.add_written(part.written.vertices, part.shared_up);
-    streamed.vertices.insert(streamed.vertices.end(), part.written.vertices.begin(), part.written.vertices.end());
+  // The ordered gather (each vertex written once, by the lowest rank on it): one process's mesh.
+  const TriangleMesh gathered = gather_ordered(parts);
+  EXPECT_EQ(gathered.vertices.size(), whole.vertices.size()) << what << ": gathered vertices";
+  EXPECT_TRUE(same_bits(gathered.vertices, whole.vertices)) << what << ": gathered positions, in order";
+  EXPECT_TRUE(same_bits(gathered.normals, whole.normals)) << what << ": gathered normals, in order";
+  EXPECT_TRUE(gathered.triangles == whole.triangles) << what << ": gathered triangles, in order";
+  EXPECT_EQ(gathered.attributes.size(), whole.attributes.size()) << what;
+  for (std::size_t a = 0; a < std::min(gathered.attributes.size(), whole.attributes.size()); ++a) {
+    EXPECT_EQ(gathered.attributes[a].name, whole.attributes[a].name) << what;
+    EXPECT_TRUE(same_bits(gathered.attributes[a].values, whole.attributes[a].values)) << what << ": " << whole.attributes[a].name;
   }
-  for (std::size_t r = 0; r < parts.size(); ++r) {
-    std::vector<Triangle> t = parts[r].triangles;
-    index.resolve(r, t, parts[r].foreign);
-    streamed.triangles.insert(streamed.triangles.end(), t.begin(), t.end());
-  }
-  EXPECT_EQ(index.vertices(), whole.vertices.size()) << what << ": streamed vertices";
-  const TriangleMesh streamed_canonical = weld_pieces({streamed}), canonical = weld_pieces({whole});
-  EXPECT_TRUE(same_bits(streamed_canonical.vertices, canonical.vertices)) << what << ": streamed positions";
-  EXPECT_TRUE(streamed_canonical.triangles == canonical.triangles) << what << ": streamed triangles";
+  const TriangleMesh canonical = weld_pieces({whole});
   const TriangleMesh merged = weld_pieces(pieces);
   EXPECT_EQ(merged.vertices.size(), whole.vertices.size()) << what;
   EXPECT_EQ(merged.triangles.size(), whole.triangles.size()) << what;
@@ -231,6 +227,74 @@ TEST(Distributed, WelderFedPieceByPieceMatchesTheWeld) {
   std::vector<Attribute> truncated = pieces[0].attributes;
   truncated[0].values.pop_back();
   EXPECT_THROW(short_values.add_attributes(0, truncated), InvalidParameter);
+}
+
+// What a rank runs on its slab: the mesh reconstruct() makes, bit for bit (the order keys ride
+// through the stages and come off), and strictly increasing keys; a schedule without sweeps,
+// erosion and the CUDA backend are refused.
+TEST(Distributed, OrderedReconstructionIsReconstructWithKeys) {
+  const ParticleSet ps = read_particles(test::data_file("dam_break_frame_9_6859_particles.bgeo"));
+  Params given;
+  given.transfer = {"velocity"};
+  const Result plain = reconstruct(ps, given);
+  std::vector<VertexOrderKey> keys;
+  const Result ordered = reconstruct_ordered(ps, given, keys);
+  const TriangleMesh &a = plain.mesh, &b = ordered.mesh;
+  EXPECT_TRUE(same_bits(a.vertices, b.vertices));
+  EXPECT_TRUE(same_bits(a.normals, b.normals));
+  EXPECT_TRUE(a.triangles == b.triangles);
+  ASSERT_EQ(b.attributes.size(), 1u) << "the velocity only: the keys' attribute comes off";
+  EXPECT_EQ(b.attributes[0].name, "velocity");
+  EXPECT_TRUE(same_bits(a.attributes[0].values, b.attributes[0].values));
+  ASSERT_EQ(keys.size(), b.vertices.size());
+  ASSERT_GT(keys.size(), 1000u);
+  for (std::size_t v = 1; v < keys.size(); ++v) ASSERT_LT(keys[v - 1], keys[v]) << "vertex " << v;
+  // Z-order codes repeat (several vertices a cell); the edge keys break the ties.
+  std::size_t ties = 0;
+  for (std::size_t v = 1; v < keys.size(); ++v) ties += keys[v - 1].morton == keys[v].morton;
+  EXPECT_GT(ties, keys.size() / 10);
+  Params cuda = given;
+  cuda.backend = Backend::cuda;
+  EXPECT_THROW(reconstruct_ordered(ps, cuda, keys), InvalidParameter);
+  Params raw = given;
+  raw.steps_a = raw.steps_b = raw.steps_free = 0;
+  EXPECT_THROW(reconstruct_ordered(ps, raw, keys), InvalidParameter);
+  Params eroded = given;
+  eroded.erode = 0.001;
+  EXPECT_THROW(reconstruct_ordered(ps, eroded, keys), InvalidParameter);
+}
+
+// The gather refuses parts that do not fit together, and a part refuses a mesh out of order.
+TEST(Distributed, OrderedGatherRefusesPartsThatDoNotFit) {
+  const ParticleSet ps = read_particles(test::data_file("ply/dam_break_frame_9_6859_particles.ply"));
+  const Params given = resolve_frame_estimates(ps, Params{});
+  const Decomposition d = decompose(ps, resolve_params(ps, given), 2);
+  std::vector<OrderedPart> parts;
+  for (int r = 0; r < 2; ++r) {
+    std::vector<VertexOrderKey> keys;
+    TriangleMesh mesh = reconstruct_ordered(slab_particles(ps, d, r), given, keys).mesh;
+    parts.push_back(ordered_part(std::move(mesh), std::move(keys), d, r));
+  }
+  ASSERT_FALSE(parts[1].foreign.empty()) << "the slabs share a seam";
+  EXPECT_NO_THROW(gather_ordered(parts));
+  // A part twice: its vertices are written twice.
+  EXPECT_THROW(gather_ordered({parts[0], parts[0]}), InvalidParameter);
+  // Rank 1 alone: its seam vertices were written by nobody.
+  EXPECT_THROW(gather_ordered({OrderedPart{}, parts[1]}), InvalidParameter);
+  // Two triangles in one place.
+  OrderedPart twice = parts[0];
+  twice.triangles.insert(twice.triangles.begin() + 1, twice.triangles[0]);
+  twice.ties.insert(twice.ties.begin() + 1, twice.ties[0]);
+  twice.crosses.insert(twice.crosses.begin() + 1, twice.crosses[0]);
+  EXPECT_THROW(gather_ordered({twice, parts[1]}), InvalidParameter);
+  // A mesh whose vertices are not in their keys' order.
+  std::vector<VertexOrderKey> keys;
+  TriangleMesh mesh = reconstruct_ordered(slab_particles(ps, d, 0), given, keys).mesh;
+  std::swap(keys[10], keys[11]);
+  EXPECT_THROW(ordered_part(mesh, keys, d, 0), std::logic_error);
+  std::swap(keys[10], keys[11]);
+  std::swap(mesh.triangles.front(), mesh.triangles.back());
+  EXPECT_THROW(ordered_part(mesh, keys, d, 0), std::logic_error);
 }
 
 /// K threads standing for K ranks, each holding one part of a frame, their reductions meeting at

@@ -535,7 +535,7 @@ class RankRun {
       } else {
         std::vector<VertexOrderKey> keys;
         result_ = reconstruct_ordered(slab_, given_, keys, origin_);
-        part_ = ordered_part(std::move(result_.mesh), std::move(keys), d_, rank_);
+        part_ = ordered_part(std::move(result_.mesh), std::move(keys), d_, rank_, origin_);
       }
       result_.mesh = {};
     });

@@ -103,7 +103,8 @@ struct VertexOrderKey {
 /// extraction's block order, which vertex keys do not give; and erosion, whose normals are summed
 /// in the slab's triangle order (mesh/normals.hpp), which rounds differently from the whole
 /// frame's at a few vertices. `origin`: the whole frame's local_origin (reconstruct.hpp), so that
-/// a slab of a frame far from the origin is computed about the point the whole frame would be.
+/// a slab of a frame far from the origin is computed about the point the whole frame would be; the
+/// mesh returned stays in those local coordinates (ordered_part moves it back).
 Result reconstruct_ordered(const ParticleSet& particles, const Params& params, std::vector<VertexOrderKey>& keys,
                            const std::array<double, 3>& origin = {});
 
@@ -127,7 +128,10 @@ struct OrderedPart {
 /// order, which is their order in the slab's mesh too (`ties`), so a triangle's place is the first
 /// place of its smallest vertex's run plus its tie. Throws std::logic_error when the mesh is not in
 /// that order (keys not increasing, triangles not sorted by their smallest vertex).
-OrderedPart ordered_part(TriangleMesh mesh, std::vector<VertexOrderKey> keys, const Decomposition& d, int rank);
+/// `origin`: the frame's local origin the slab was surfaced about (reconstruct_ordered's mesh is
+/// in those coordinates); the part's vertices are written back where the frame is.
+OrderedPart ordered_part(TriangleMesh mesh, std::vector<VertexOrderKey> keys, const Decomposition& d, int rank,
+                         const std::array<double, 3>& origin = {});
 
 /// Where vertices go in the gathered mesh: their index, and the index of the first triangle whose
 /// smallest vertex each is (the triangles before it: the runs of the vertices before it).

@@ -196,7 +196,8 @@ void keep_owned(TriangleMesh& mesh, const Decomposition& d, int rank) {
   mesh.triangles.shrink_to_fit();
 }
 
-OrderedPart ordered_part(TriangleMesh mesh, std::vector<VertexOrderKey> keys, const Decomposition& d, int rank) {
+OrderedPart ordered_part(TriangleMesh mesh, std::vector<VertexOrderKey> keys, const Decomposition& d, int rank,
+                         const std::array<double, 3>& origin) {
   const std::size_t nv = mesh.vertices.size();
   if (keys.size() != nv)
     throw std::logic_error(fmt::format("ordered_part: {} keys for {} vertices", keys.size(), nv));
@@ -221,7 +222,7 @@ OrderedPart ordered_part(TriangleMesh mesh, std::vector<VertexOrderKey> keys, co
     if (t > 0 && first != before) run = t;
     before = first;
     ++run_of[first];
-    const int32_t owner = owner_of(d, centroid(mesh, tri, d.axis));
+    const int32_t owner = owner_of(d, centroid(mesh, tri, d.axis) + origin[std::size_t(d.axis)]);
     for (uint32_t v : tri) lowest[v] = std::min(lowest[v], owner), highest[v] = std::max(highest[v], owner);
     if (owner != rank) continue;
     for (uint32_t v : tri) used[v] = 1;
@@ -262,6 +263,11 @@ OrderedPart ordered_part(TriangleMesh mesh, std::vector<VertexOrderKey> keys, co
   // The normals are the gathered mesh's (gather_normals), not the slab's.
   std::vector<Vec3f>().swap(mesh.normals);
   mesh.vertices.resize(written);
+  // Where the frame is: the slab was surfaced about the frame's local origin (its normals' terms
+  // above too, as one process computes them), and is written back as one process writes it.
+  if (origin[0] != 0 || origin[1] != 0 || origin[2] != 0)
+    for (Vec3f& v : mesh.vertices)
+      v = Vec3f{float(double(v.x) + origin[0]), float(double(v.y) + origin[1]), float(double(v.z) + origin[2])};
   mesh.vertices.shrink_to_fit();
   for (Attribute& a : mesh.attributes) a.values.resize(std::size_t(written) * std::size_t(a.components)), a.values.shrink_to_fit();
   keys.resize(written);

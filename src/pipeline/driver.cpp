@@ -262,7 +262,9 @@ Result reconstruct_keyed(const ParticleSet& all_particles, const Params& params,
   }
   post_process(plan, particles, result, progress);
   if (keys != nullptr) *keys = take_order_keys(result.mesh);
-  if (origin.shifted()) {
+  if (origin.shifted() && keys != nullptr) {
+    result.params.clip_box = params.clip_box;  // the mesh stays local: ordered_part moves it back
+  } else if (origin.shifted()) {
     for (Vec3f& v : result.mesh.vertices)
       v = Vec3f{float(double(v.x) + origin.x), float(double(v.y) + origin.y), float(double(v.z) + origin.z)};
     result.params.clip_box = params.clip_box;

@@ -85,6 +85,27 @@ print('fixed-record PLY read in parts by every rank; bgeo read by rank 0')
   fail "mpirun -n 2 with --particle-box failed"
 cmp box.single.ply box.k2.ply || fail "--particle-box: the file of K=2 is not one process's"
 echo "particle box: K=2 byte-identical to one process"
+# A frame far from the origin: every rank computes its slab about the whole frame's local origin,
+# so the ranks' file is still one process's.
+/usr/bin/python3 - "$data/ply/dam_break_frame_9_6859_particles.ply" <<'PY'
+import sys
+source = open(sys.argv[1], "rb").read()
+end = source.index(b"end_header\n") + len(b"end_header\n")
+header = source[:end].decode()
+assert "property float x\nproperty float y\nproperty float z\n" in header, header
+import numpy as np
+names = [l.split()[2] for l in header.splitlines() if l.startswith("property")]
+types = [l.split()[1] for l in header.splitlines() if l.startswith("property")]
+dt = np.dtype([(n, {"float": "<f4", "int": "<i4", "uint": "<u4"}[t]) for n, t in zip(names, types)])
+v = np.frombuffer(source[end:], dt).copy()
+for axis in "xyz":
+    v[axis] = (v[axis].astype(np.float64) + 1e4).astype("<f4")
+open("far.ply", "wb").write(source[:end] + v.tobytes())
+PY
+"$meniscus" surface far.ply -o far.single.ply -q --backend cpu --spacing 0.05
+"${mpi[@]}" 2 "$meniscus" surface far.ply -o far.k2.ply -q --spacing 0.05 || fail "mpirun -n 2 on a far frame failed"
+cmp far.single.ply far.k2.ply || fail "a frame 1e4 from the origin: the file of K=2 is not one process's"
+echo "a frame 1e4 from the origin: K=2 byte-identical to one process"
 # README.md's example, and formats gathered whole on rank 0 (the velocity as each format holds it).
 frame=$data/ply/dam_break_frame_9_6859_particles.ply
 for ext in ply obj bgeo vtp; do

@@ -133,11 +133,10 @@ TEST(CudaParity, TransferredAttributesMatch) {
     EXPECT_NEAR(cpu.mesh.attributes[0].values[i], gpu.mesh.attributes[0].values[i], 1e-4);
 }
 
-// The field methods of issue #7 on both backends: the extraction is bit-identical (the device
-// gathers exactly the CPU scatter's sums: KernelField.PerSampleGatherMatchesTheScatterBitForBit
-// checks the shared gather on the CPU; the ellipsoids need only correctly rounded sqrt and
-// division); the smoothing agrees to rounding (the anisotropic shells use cbrtf, which may differ
-// in the last bit between the device and glibc).
+// The field methods on both backends: the extraction is bit-identical (the device gathers exactly
+// the CPU scatter's sums: KernelField.PerSampleGatherMatchesTheScatterBitForBit checks the shared
+// gather on the CPU; the ellipsoids need only correctly rounded sqrt and division); the smoothing
+// agrees to rounding (ties between two nearest particles may go either way: docs/gpu.md).
 TEST(CudaParity, FieldMethodsGiveTheSameMesh) {
   MENISCUS_REQUIRE_CUDA_DEVICE();
   const ParticleSet ps = read_particles(test::data_file("ply/dam_break_frame_9_6859_particles.ply"));
@@ -561,7 +560,8 @@ TEST(CudaLocality, RemovingASplashLeavesThePoolBeyondRLocalBitIdentical) {
 // The emulated device's meshes of every real frame, bit for bit, against the checksums stored in
 // tests/data/checksums.json (tests/e2e/test_mesh_checksums.cpp does the CPU's): a restructuring of
 // the backend must leave them as they were. A real GPU may differ in the last bits (its atomics'
-// order in the void volumes, its cbrtf: docs/architecture.md) and is compared with the CPU instead.
+// order in the void volumes, ties between nearest particles: docs/gpu.md) and is compared with the
+// CPU instead.
 TEST_P(CudaParityFrame, EmulatedDeviceMeshesAreTheStoredBits) {
   MENISCUS_REQUIRE_CUDA_DEVICE();
   if (!emulated_device()) GTEST_SKIP() << "a real device: CudaParityFrame compares it with the CPU";

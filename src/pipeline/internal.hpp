@@ -25,6 +25,12 @@ struct SampleLattice;
 /// squares come near the smallest normal float (1e-38).
 inline constexpr double kMinSpacing = 1e-12;
 
+/// The spacing estimate counts particles within one cell of a lattice this fine, relative to its
+/// search cells (about the spacing), as one site, and a sample's nearest neighbour is never within
+/// two such cells: a pile of coincident particles has no spacing of its own, however many there
+/// are. Fluid particles are never this close (an SPH solver keeps them about d apart).
+inline constexpr double kCoincidentInCell = 1e-4;
+
 /// Refuses (InputError) a cell of `cell` below kMinSpacing, and a particle farther from the
 /// origin than a grid axis of such cells holds (kMaxCoord), naming it: a stray far from the fluid.
 /// `first`: the index of positions[0] in the frame; `what`: the cells, for the message.

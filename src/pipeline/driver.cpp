@@ -195,7 +195,14 @@ Result reconstruct(const ParticleSet& all_particles, const Params& params, const
   const Grant memory = memory_limit(given.max_memory_gb);
   given.max_memory_gb = memory.amount / 1e9;
   stats.max_memory_from = memory.source;
-  Params p = StageTimer(stats, progress).run("parameters", [&] { return resolve_params(particles, given); });
+  // The parameters, then the coincident particles (a near-coincident pile made exact copies of
+  // its first particle, which the stages' queries skip).
+  CoincidentParticles coincident;
+  Params p = StageTimer(stats, progress).run("parameters", [&] {
+    Params resolved = resolve_params(particles, given);
+    coincident = coincident_particles(particles, resolved);
+    return resolved;
+  });
   stats.spacing_estimated = params.spacing == 0;
   stats.particles = particles.size();
   stats.threads = p.threads;
@@ -206,12 +213,13 @@ Result reconstruct(const ParticleSet& all_particles, const Params& params, const
                                          ? particle_volumes(particles, p.spacing, p.rest_density)
                                          : std::vector<float>{};
   const StagePlan plan = plan_stages(p);  // both backends run these stages, in run_stages' order
-  const PipelineInput in{particles, p, plan, volumes, velocity};
+  const ParticleSet& surfaced = coincident.moved ? *coincident.moved : particles;
+  const PipelineInput in{surfaced, p, plan, volumes, velocity, coincident.first};
   if (!run_on_device(in, result, progress)) {
     stats.backend = "cpu";
     run_stages(plan, *make_cpu_stages(in, stats, progress), result.mesh);
   }
-  post_process(plan, particles, result, progress);
+  post_process(plan, surfaced, result, progress);
   stats.vertices = result.mesh.vertices.size();
   stats.triangles = result.mesh.triangles.size();
   stats.peak_memory_bytes = peak_resident_bytes();

@@ -1,5 +1,6 @@
 // meniscus — the inputs checked and the parameters resolved: the spacing estimate, the other
-// frame-wide estimates (rest density, reference speed), what 0 derives, and R_local.
+// frame-wide estimates (rest density, reference speed), what 0 derives, R_local, and the
+// coincident particles the stages treat as copies.
 
 #include <algorithm>
 #include <array>
@@ -49,6 +50,23 @@ void check_particles(const ParticleSet& particles) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
       throw InputError(fmt::format("particle {} has a non-finite coordinate ({}, {}, {})", i, p.x, p.y, p.z));
   }
+}
+
+CoincidentParticles coincident_particles(const ParticleSet& particles, const Params& resolved) {
+  CoincidentParticles out;
+  const HashGrid grid(particles.positions, float(std::max(resolved.spacing, resolved.voxel_size)));
+  CoincidentPoints groups = coincident_points(grid, kCoincidentSpacings * resolved.spacing);
+  if (groups.copies == 0) return out;
+  const std::vector<Vec3f>& x = particles.positions;
+  bool apart = false;
+  for (std::size_t i = 0; i < x.size() && !apart; ++i) apart = !(x[i] == x[groups.first[i]]);
+  if (apart) {
+    out.moved = particles;
+    std::vector<Vec3f>& y = out.moved->positions;
+    for (std::size_t i = 0; i < y.size(); ++i) y[i] = y[groups.first[i]];  // a first precedes its copies
+  }
+  out.first = std::move(groups.first);
+  return out;
 }
 
 const Attribute* find_attribute(const ParticleSet& particles, std::initializer_list<const char*> names, int components) {

@@ -1,11 +1,14 @@
-// Tests of the coincident points' groups (grid/coincident.hpp) against brute force.
+// Tests of the coincident points' groups (grid/coincident.hpp) against brute force, and of the
+// particle pass that computes a pile's centre and ellipsoid once (field/anisotropy.hpp).
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <set>
 
+#include "field/anisotropy.hpp"
 #include "grid/coincident.hpp"
 
 namespace meniscus {
@@ -105,6 +108,29 @@ TEST(CoincidentPoints, PointsAllApartGiveNoGroups) {
   p.pop_back();
   EXPECT_TRUE(coincident_points(HashGrid(p, 1.0f), 0).first.empty());
   EXPECT_TRUE(coincident_points(HashGrid(p, 1.0f), 1e-6).first.empty());
+}
+
+TEST(CoincidentPoints, APileSharesTheCentreAndEllipsoidItsParticlesWouldEachGet) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.0f, 0.5f);
+  std::vector<Vec3f> p(2000);
+  for (Vec3f& x : p) x = {u(rng), u(rng), u(rng)};
+  for (int k = 0; k < 300; ++k) {  // copies before their originals
+    const Vec3f x = p[std::size_t(1000 + 3 * k)];
+    p.insert(p.begin() + 3 * k, x);
+  }
+  const HashGrid grid(p, 0.1f);
+  const CoincidentPoints g = coincident_points(grid, 0);
+  ASSERT_EQ(g.copies, 300u);
+  AnisotropyConstants k;
+  k.bulk_variance = yu_turk_bulk_variance(0.1f);
+  const std::vector<Vec3f> each = smooth_positions(grid, 0.08f, 0.5f), once = smooth_positions(grid, 0.08f, 0.5f, g.first);
+  const std::vector<Ellipsoid> e_each = yu_turk_ellipsoids(grid, 0.1f, k), e_once = yu_turk_ellipsoids(grid, 0.1f, k, g.first);
+  ASSERT_EQ(once.size(), each.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    ASSERT_EQ(once[i], each[i]) << i;
+    ASSERT_EQ(std::memcmp(&e_once[i], &e_each[i], sizeof(Ellipsoid)), 0) << i;
+  }
 }
 
 }  // namespace

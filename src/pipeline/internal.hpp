@@ -48,8 +48,8 @@ void check_particles(const ParticleSet& particles);
 /// Coincident particles (coincident_particles): the particles the stages surface, and which are
 /// copies of which.
 struct CoincidentParticles {
-  /// The particles with each near-coincident copy moved onto the first of its group, when any
-  /// was not there already (empty otherwise: the particles as given).
+  /// The particles with each copy moved onto the first of its group, when any lies apart from
+  /// it (empty otherwise: the particles as given).
   std::optional<ParticleSet> moved;
   /// Per particle, the index of the first particle at its position (itself when it is alone or
   /// the first); empty when no two particles share a position.

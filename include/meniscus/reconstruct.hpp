@@ -133,11 +133,13 @@ double local_reach(const Params& p);
 Params resolve_frame_estimates(const ParticleSet& particles, const Params& params);
 
 /// The particle spacing: the larger of the median nearest-neighbour distance (exact for
-/// lattice-like sets) and the first quartile of the local density spacing (volume of a ball of 2.5
-/// NN-distances / particles in it)^(1/3) — the nearest-neighbour distance alone underestimates the
-/// rest spacing of disordered SPH fluid (docs/cli.md "Spacing"), which leaves holes in the surface.
-/// Exact duplicates are ignored. Estimated from a deterministic sample of at most `max_samples`
-/// particles.
+/// lattice-like sets) and the first quartile of the local density spacing
+/// (volume of a ball of 2.5 NN-distances / particles in it)^(1/3) — the nearest-neighbour
+/// distance alone underestimates the rest spacing of disordered SPH fluid (docs/cli.md "Spacing"), which
+/// leaves holes in the surface. Coincident particles (copies, or within 1e-4 of the search cells,
+/// about 1e-4 d, of one another) are one position in the nearest-neighbour distances and count
+/// in the density spacing: a pile has no spacing of its own, and costs no more than one particle.
+/// Estimated from a deterministic sample of at most `max_samples` particles.
 double estimate_spacing(const ParticleSet& particles, std::size_t max_samples = 50000);
 
 /// Keeps the particles inside `box` (xmin, ymin, zmin, xmax, ymax, zmax; faces included) with

@@ -15,12 +15,18 @@ namespace meniscus {
 /// Laplacian smoothing of the points of `grid` (Yu & Turk §5): x̄_i = (1−λ)x_i + λ Σ_j w_ij x_j / Σ_j w_ij
 /// over the points within `radius` (the point itself included), w_ij = 1 − (r_ij/radius)³.
 /// Returns the smoothed points in the *original* order (grid.order() maps sorted → original).
-std::vector<Vec3f> smooth_positions(const HashGrid& grid, float radius, float lambda);
+/// `first` (original indices, empty: none): per point the first point at its position
+/// (coincident_points); a copy takes its first's result, the same numbers, computed once — each
+/// of a pile of k copies would otherwise sum over all k (O(k²)). With it, O(n + k · (the points
+/// within `radius` of the pile)) for a pile of k.
+std::vector<Vec3f> smooth_positions(const HashGrid& grid, float radius, float lambda,
+                                    std::span<const uint32_t> first = {});
 
 /// Yu & Turk's ellipsoid of every point of `grid` from the weighted covariance of its neighbours
 /// within `radius` (their 2h), weights w = 1 − (r/radius)³, about the weighted mean. Returned in
-/// the *original* order. Parallel over points.
-std::vector<Ellipsoid> yu_turk_ellipsoids(const HashGrid& grid, float radius, const AnisotropyConstants& constants);
+/// the *original* order. Parallel over points. `first`: as for smooth_positions.
+std::vector<Ellipsoid> yu_turk_ellipsoids(const HashGrid& grid, float radius, const AnisotropyConstants& constants,
+                                          std::span<const uint32_t> first = {});
 
 /// centre_holding_particle for every particle, in place: `particles`, `ellipsoids` and `centres`
 /// in the same (original) order. Parallel over particles.

@@ -40,7 +40,8 @@ class CpuStages final : public StageBackend {
  public:
   CpuStages(const PipelineInput& in, Stats& stats, const ProgressFn& progress)
       : particles_(in.particles), p_(in.params), plan_(in.plan), volumes_(in.volumes), velocity_(in.velocity),
-        order_keys_(in.order_keys), stats_(stats), progress_(progress), timer_(stats, progress) {}
+        order_keys_(in.order_keys), coincident_(in.coincident), stats_(stats), progress_(progress),
+        timer_(stats, progress) {}
 
   void timed(const char* name, const std::function<void()>& stage) override { timer_.run(name, stage); }
 
@@ -50,12 +51,12 @@ class CpuStages final : public StageBackend {
   void particles() override {
     const ParticlePass& pass = plan_.particles;
     const HashGrid raw(particles_.positions, pass.raw_cell);
-    if (pass.anisotropic) ellipsoids_ = yu_turk_ellipsoids(raw, pass.pca_radius, pass.constants);
+    if (pass.anisotropic) ellipsoids_ = yu_turk_ellipsoids(raw, pass.pca_radius, pass.constants, coincident_);
     if (!(pass.lambda > 0)) {
       centres_ = particles_.positions;
       return;
     }
-    centres_ = smooth_positions(raw, pass.smooth_radius, pass.lambda);
+    centres_ = smooth_positions(raw, pass.smooth_radius, pass.lambda, coincident_);
     if (pass.anisotropic) hold_particles_in_shells(particles_.positions, ellipsoids_, pass.centre_reach, centres_);
   }
 
@@ -71,12 +72,36 @@ class CpuStages final : public StageBackend {
         shell_axis_ = std::max(shell_axis_, shells_[i].max_axis);
       }
     }
+    if (!coincident_.empty()) build_sites(positions);
   }
+
+  /// The grid of the sites: the first particle at each position (their centres and ellipsoids are
+  /// their copies' too: the particle pass computed them once). Its sorted order is the main grid's
+  /// without the copies (both sorted by cell, then by index), so a nearest query gives the same
+  /// particle, ties included: the constraints, the distance field and the blob test, which never
+  /// need a copy, read it — each query costs what it costs without the pile.
+  void build_sites(std::span<const Vec3f> positions) {
+    std::vector<uint32_t> heads;
+    for (std::size_t i = 0; i < coincident_.size(); ++i)
+      if (coincident_[i] == i) heads.push_back(uint32_t(i));
+    std::vector<Vec3f> at(heads.size());
+    for (std::size_t k = 0; k < heads.size(); ++k) at[k] = positions[heads[k]];
+    sites_.emplace(at, plan_.grid_cell);
+    if (plan_.ellipsoid_shells) {
+      const auto order = sites_->order();
+      site_shells_.resize(heads.size());
+      for (std::size_t k = 0; k < heads.size(); ++k) site_shells_[k] = unit_volume_shell(ellipsoids_[heads[order[k]]]);
+    }
+  }
+  /// The grid the queries that need no copy read, and its shells.
+  const HashGrid& sites() const { return sites_ ? *sites_ : *grid_; }
+  std::span<const Ellipsoid> site_shells() const { return sites_ ? site_shells_ : shells_; }
 
   void field() override {
     const double max_bytes = p_.max_memory_gb * 1e9;
     if (!plan_.kernel_field) {
-      field_.emplace(distance_field(*grid_, plan_.lattice, plan_.distance_band,
+      // A minimum over the particles: the sites give the same field (grid_'s cells, the same blocks).
+      field_.emplace(distance_field(sites(), plan_.lattice, plan_.distance_band,
                                     checked_band_blocks(*grid_, plan_.lattice, plan_.distance_band, max_bytes, p_,
                                                         stats_.max_memory_from)));
     } else {
@@ -114,7 +139,7 @@ class CpuStages final : public StageBackend {
   void voids() override { stats_.removed_voids = remove_small_voids(mesh_, plan_.void_volume); }
 
   void blobs() override {
-    stats_.removed_blobs = remove_unsupported_blobs(mesh_, *grid_, plan_.void_volume, plan_.blob_min_volume);
+    stats_.removed_blobs = remove_unsupported_blobs(mesh_, sites(), plan_.void_volume, plan_.blob_min_volume);
   }
 
   /// The extraction numbers vertices in edge-key (row-major) order; the sweeps run several times
@@ -140,10 +165,10 @@ class CpuStages final : public StageBackend {
       if (progress_) progress_("smooth", f);
     };
     if (plan_.ellipsoid_shells) {
-      const EllipsoidConstraint constraint{&*grid_, shells_, plan_.r_inner, plan_.r_outer, shell_axis_};
+      const EllipsoidConstraint constraint{&sites(), site_shells(), plan_.r_inner, plan_.r_outer, shell_axis_};
       stats_.smoothing = smooth_surface(mesh_.vertices, mesh_.triangles, &constraint, o, tick);
     } else {
-      const ShellConstraint constraint{&*grid_, plan_.r_inner, plan_.r_outer};
+      const ShellConstraint constraint{&sites(), plan_.r_inner, plan_.r_outer};
       stats_.smoothing = smooth_surface(mesh_.vertices, mesh_.triangles, &constraint, o, tick);
     }
   }
@@ -168,6 +193,7 @@ class CpuStages final : public StageBackend {
   const std::vector<float>& volumes_;
   const Attribute* velocity_;
   const bool order_keys_;
+  std::span<const uint32_t> coincident_;  // per particle, the first at its position (empty: none)
   Stats& stats_;
   const ProgressFn& progress_;
   StageTimer timer_;
@@ -177,6 +203,8 @@ class CpuStages final : public StageBackend {
   std::vector<Ellipsoid> shells_;                         // the constraint shells, the grid's order
   float shell_axis_ = 0;                                  // their longest axis
   std::optional<HashGrid> grid_;
+  std::optional<HashGrid> sites_;      // the first particle at each position, when any is copied
+  std::vector<Ellipsoid> site_shells_;  // their constraint shells, in sites_' order
   std::optional<SparseField> field_;
   TriangleMesh mesh_;
 };

@@ -244,7 +244,14 @@ Result reconstruct_keyed(const ParticleSet& all_particles, const Params& params,
   const Grant memory = memory_limit(given.max_memory_gb);
   given.max_memory_gb = memory.amount / 1e9;
   stats.max_memory_from = memory.source;
-  Params p = StageTimer(stats, progress).run("parameters", [&] { return resolve_params(particles, given); });
+  // The parameters, then the coincident particles (a near-coincident pile made exact copies of
+  // its first particle, which the stages' queries skip).
+  CoincidentParticles coincident;
+  Params p = StageTimer(stats, progress).run("parameters", [&] {
+    Params resolved = resolve_params(particles, given);
+    coincident = coincident_particles(particles, resolved);
+    return resolved;
+  });
   stats.spacing_estimated = params.spacing == 0;
   stats.particles = particles.size();
   stats.threads = p.threads;
@@ -255,12 +262,13 @@ Result reconstruct_keyed(const ParticleSet& all_particles, const Params& params,
                                          ? particle_volumes(particles, p.spacing, p.rest_density)
                                          : std::vector<float>{};
   const StagePlan plan = plan_stages(p);  // both backends run these stages, in run_stages' order
-  const PipelineInput in{particles, p, plan, volumes, velocity, keys != nullptr};
+  const ParticleSet& surfaced = coincident.moved ? *coincident.moved : particles;
+  const PipelineInput in{surfaced, p, plan, volumes, velocity, keys != nullptr, coincident.first};
   if (keys != nullptr || !run_on_device(in, result, progress)) {
     stats.backend = "cpu";
     run_stages(plan, *make_cpu_stages(in, stats, progress), result.mesh);
   }
-  post_process(plan, particles, result, progress);
+  post_process(plan, surfaced, result, progress);
   if (keys != nullptr) *keys = take_order_keys(result.mesh);
   if (origin.shifted() && keys != nullptr) {
     result.params.clip_box = params.clip_box;  // the mesh stays local: ordered_part moves it back

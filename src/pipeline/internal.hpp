@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstddef>
 #include <initializer_list>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -26,6 +27,17 @@ struct VertexOrderKey;
 /// squares come near the smallest normal float (1e-38).
 inline constexpr double kMinSpacing = 1e-12;
 
+/// The spacing estimate counts particles within one cell of a lattice this fine, relative to its
+/// search cells (about the spacing), as one site, and a sample's nearest neighbour is never within
+/// two such cells: a pile of coincident particles has no spacing of its own, however many there
+/// are. Fluid particles are never this close (an SPH solver keeps them about d apart).
+inline constexpr double kCoincidentInCell = 1e-4;
+
+/// reconstruct() moves the particles within one cell of a lattice of this many spacings onto the
+/// first of them (coincident_particles): the stages then see exact copies, which their queries
+/// skip. At most √3 · 1e-5 d, far below what the surface resolves.
+inline constexpr double kCoincidentSpacings = 1e-5;
+
 /// Refuses (InputError) a cell of `cell` below kMinSpacing, and a particle farther from the
 /// origin than a grid axis of such cells holds (kMaxCoord), naming it: a stray far from the fluid.
 /// `first`: the index of positions[0] in the frame; `what`: the cells, for the message.
@@ -33,6 +45,24 @@ void check_coordinates(std::span<const Vec3f> positions, std::size_t first, doub
 
 /// Attribute lengths, and every coordinate finite (InputError naming the first that is not).
 void check_particles(const ParticleSet& particles);
+
+/// Coincident particles (coincident_particles): the particles the stages surface, and which are
+/// copies of which.
+struct CoincidentParticles {
+  /// The particles with each copy moved onto the first of its group, when any lies apart from
+  /// it (empty otherwise: the particles as given).
+  std::optional<ParticleSet> moved;
+  /// Per particle, the index of the first particle at its position (itself when it is alone or
+  /// the first); empty when no two particles share a position.
+  std::vector<uint32_t> first;
+};
+
+/// Groups the particles that lie within one cell of a lattice of kCoincidentSpacings · spacing
+/// (coincident_points over a grid of max(spacing, voxel_size) cells) and moves each onto the first
+/// of its group, so that a near-coincident pile becomes exact copies of one particle. A frame
+/// without such particles comes back as given (nothing moved, nothing allocated but the search).
+/// O(n) plus O(k log k) for a pile of k.
+CoincidentParticles coincident_particles(const ParticleSet& particles, const Params& resolved);
 
 /// The particles' attribute with one of these names and this many components, or nullptr.
 const Attribute* find_attribute(const ParticleSet& particles, std::initializer_list<const char*> names, int components);

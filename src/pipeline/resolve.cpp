@@ -1,15 +1,19 @@
 // meniscus — the inputs checked and the parameters resolved: the spacing estimate, the other
-// frame-wide estimates (rest density, reference speed), what 0 derives, and R_local.
+// frame-wide estimates (rest density, reference speed), what 0 derives, R_local, and the
+// coincident particles the stages treat as copies.
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
+#include <span>
 
 #include <fmt/format.h>
 
 #include "common/for_each.hpp"
 #include "field/anisotropy.hpp"
 #include "field/kernel_impl.hpp"
+#include "grid/coincident.hpp"
 #include "grid/key_index.hpp"
 #include "extract/field_band.hpp"
 #include "meniscus/distributed.hpp"
@@ -46,6 +50,23 @@ void check_particles(const ParticleSet& particles) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
       throw InputError(fmt::format("particle {} has a non-finite coordinate ({}, {}, {})", i, p.x, p.y, p.z));
   }
+}
+
+CoincidentParticles coincident_particles(const ParticleSet& particles, const Params& resolved) {
+  CoincidentParticles out;
+  const HashGrid grid(particles.positions, float(std::max(resolved.spacing, resolved.voxel_size)));
+  CoincidentPoints groups = coincident_points(grid, kCoincidentSpacings * resolved.spacing);
+  if (groups.copies == 0) return out;
+  const std::vector<Vec3f>& x = particles.positions;
+  bool apart = false;
+  for (std::size_t i = 0; i < x.size() && !apart; ++i) apart = !(x[i] == x[groups.first[i]]);
+  if (apart) {
+    out.moved = particles;
+    std::vector<Vec3f>& y = out.moved->positions;
+    for (std::size_t i = 0; i < y.size(); ++i) y[i] = y[groups.first[i]];  // a first precedes its copies
+  }
+  out.first = std::move(groups.first);
+  return out;
 }
 
 const Attribute* find_attribute(const ParticleSet& particles, std::initializer_list<const char*> names, int components) {
@@ -109,14 +130,21 @@ double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::s
     throw InputError(fmt::format("cannot estimate the particle spacing from fewer than 2 particles; give {}",
                                  spelled("spacing")));
   // The box of the bulk of the frame: each axis without its extreme half-percent (of a sample of
-  // each part), so that one stray far away (a corrupt value, a particle flung out) neither makes
-  // the search cells huge nor hides the spacing. −hi is reduced by min with lo.
+  // each part, each position once: a pile of copies is not the bulk), so that one stray far away
+  // (a corrupt value, a particle flung out) neither makes the search cells huge nor hides the
+  // spacing. −hi is reduced by min with lo.
   std::vector<float> box(6, INFINITY);
   {
     const std::size_t held = part.positions.size(), step = std::max<std::size_t>(1, held / 20000);
+    std::vector<Vec3f> sampled;
+    for (std::size_t i = 0; i < held; i += step) sampled.push_back(part.positions[i]);
+    std::sort(sampled.begin(), sampled.end(), [](Vec3f a, Vec3f b) {
+      return a.x != b.x ? a.x < b.x : (a.y != b.y ? a.y < b.y : a.z < b.z);
+    });
+    sampled.erase(std::unique(sampled.begin(), sampled.end()), sampled.end());
     std::array<std::vector<float>, 3> axis;
-    for (std::size_t i = 0; i < held; i += step)
-      for (int c = 0; c < 3; ++c) axis[std::size_t(c)].push_back(part.positions[i][c]);
+    for (const Vec3f& q : sampled)
+      for (int c = 0; c < 3; ++c) axis[std::size_t(c)].push_back(q[c]);
     for (std::size_t c = 0; c < 3 && held > 0; ++c) {
       std::vector<float>& v = axis[c];
       const std::size_t cut = v.size() / 200;
@@ -140,9 +168,40 @@ double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::s
   const float cell = float(std::max(std::cbrt(volume / double(n)), diag * 1e-5));
   check_coordinates(part.positions, first, cell, "the cells of the spacing's estimate");
   const HashGrid grid(part.positions, cell);
+  // The searches run over sites: the particles, except that a pile of coincident ones (copies,
+  // or particles within a hair of one another: one cell of a lattice kCoincidentInCell times
+  // finer than the search's) is one site, which counts the pile's particles. Every search then
+  // costs what it costs without the pile: a sample in a pile of k would scan all k, and most
+  // samples are in the pile when it is most of the frame (O(samples · k), quadratic). A sample's
+  // nearest neighbour is the nearest site farther than `coincident` (twice the fine cell, more
+  // than a pile narrower than it spans): exact copies change nothing in it, as they never did.
+  // The sites' grid has about one site per cell, as the particles' has one particle: cells sized
+  // for the particles of a frame that is mostly piles would leave the sites thousands of empty
+  // cells apart, each visited by the growing spheres. The distances found do not depend on the
+  // cells, only the time to find them. O(n) to group, O(k log k) more for a pile of k.
+  const double tolerance = cell * kCoincidentInCell;
+  const float coincident2 = float(4 * tolerance * tolerance);
+  const std::size_t held = part.positions.size();
+  const CoincidentPoints groups = coincident_points(grid, tolerance);
+  std::vector<uint64_t> site_total(1, held - groups.copies);
+  reduce.sum(site_total);
+  const float search_cell =
+      site_total[0] >= n ? cell
+                         : float(std::max(std::cbrt(volume / double(std::max<uint64_t>(site_total[0], 1))), diag * 1e-5));
+  std::vector<Vec3f> site_positions;
+  std::vector<uint32_t> site_count;  // per site (in part order); empty: every site one particle
+  if (groups.copies > 0) {
+    GroupHeads heads = group_heads(groups, held);
+    site_positions.resize(heads.index.size());
+    for (std::size_t k = 0; k < heads.index.size(); ++k) site_positions[k] = part.positions[heads.index[k]];
+    site_count = std::move(heads.count);
+  }
+  const std::span<const Vec3f> sites = groups.copies > 0 ? std::span<const Vec3f>(site_positions) : part.positions;
+  std::optional<HashGrid> site_grid;
+  if (groups.copies > 0 || search_cell != cell) site_grid.emplace(sites, search_cell);
+  const HashGrid& search = site_grid ? *site_grid : grid;
   const std::size_t samples = std::min(n, max_samples);
   const std::size_t stride = n / samples;
-  const std::size_t held = part.positions.size();
   auto held_index = [&](std::size_t s) { return s * stride >= first && s * stride < first + held; };
   // Every sample's position, from the part that holds it.
   std::vector<float> at(3 * samples, INFINITY);
@@ -152,18 +211,18 @@ double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::s
   reduce.min(at);
   auto sample = [&](std::size_t s) { return Vec3f{at[3 * s], at[3 * s + 1], at[3 * s + 2]}; };
 
-  // The nearest other particle of each sample (squared distance > 0): a bound from the part that
-  // holds the sample (the nearest within it, by growing spheres), then the minimum over every
-  // part within that bound. One part holding all: the nearest of the whole frame at once.
+  // The nearest other site of each sample (squared distance > coincident2): a bound from the
+  // part that holds the sample (the nearest within it, by growing spheres), then the minimum over
+  // every part within that bound. One part holding all: the nearest of the whole frame at once.
   std::vector<float> nearest(samples, INFINITY);
   const float widest = 2.0f * float(diag) + cell;
   for_each_index(samples, [&](std::size_t s) {
     if (!held_index(s)) return;
     const Vec3f p = sample(s);
-    for (float r = cell; r <= widest; r *= 2.0f) {
+    for (float r = search_cell; r <= widest; r *= 2.0f) {
       float best = INFINITY;
-      grid.for_each_within(p, r, [&](uint32_t, float d2) {
-        if (d2 > 0 && d2 < best) best = d2;
+      search.for_each_within(p, r, [&](uint32_t, float d2) {
+        if (d2 > coincident2 && d2 < best) best = d2;
       });
       if (best <= r * r) {
         nearest[s] = best;
@@ -177,8 +236,8 @@ double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::s
       const float bound = nearest[s];
       const float r = std::isfinite(bound) ? std::sqrt(bound) * (1 + 1e-5f) : widest;
       float best = bound;
-      grid.for_each_within(sample(s), r, [&](uint32_t, float d2) {
-        if (d2 > 0 && d2 < best) best = d2;
+      search.for_each_within(sample(s), r, [&](uint32_t, float d2) {
+        if (d2 > coincident2 && d2 < best) best = d2;
       });
       nearest[s] = best;
     });
@@ -193,13 +252,18 @@ double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::s
   std::nth_element(nn.begin(), mid, nn.end());
   const float median_nn = *mid;
 
-  // Local density spacing: (ball volume / particles in the ball)^(1/3).
+  // Local density spacing: (ball volume / particles in the ball)^(1/3), the particles counted by
+  // site (a site counts its pile).
   const float radius = 2.5f * median_nn;
-  const HashGrid density_grid(part.positions, radius);
+  const HashGrid density_grid(sites, radius);
+  const auto density_order = density_grid.order();
   std::vector<uint64_t> counts(samples, 0);
   for_each_index(samples, [&](std::size_t s) {
     std::size_t count = 0;
-    density_grid.for_each_within(sample(s), radius, [&](uint32_t, float) { ++count; });
+    if (site_count.empty())
+      density_grid.for_each_within(sample(s), radius, [&](uint32_t, float) { ++count; });
+    else
+      density_grid.for_each_within(sample(s), radius, [&](uint32_t i, float) { count += site_count[density_order[i]]; });
     counts[s] = count;
   });
   reduce.sum(counts);

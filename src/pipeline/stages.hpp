@@ -5,6 +5,7 @@
 
 #include <functional>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "meniscus/reconstruct.hpp"
@@ -13,9 +14,12 @@
 namespace meniscus {
 
 /// What the stages of either backend work from: the particles, the resolved parameters, their
-/// plan, the SPH volumes per original particle (empty: uniform d³) and the particles' velocity
-/// attribute (null without one); with `order_keys` (the CPU's stages only), the extraction adds
-/// the vertices' order-key attribute (kOrderKeyAttribute, reconstruct_ordered).
+/// plan, the SPH volumes per original particle (empty: uniform d³), the particles' velocity
+/// attribute (null without one) and, per particle, the first particle at its position
+/// (coincident_particles; empty when no two share one): the CPU's queries skip the copies where
+/// they change nothing, the device's visit them (the same results). With `order_keys` (the CPU's
+/// stages only), the extraction adds the vertices' order-key attribute (kOrderKeyAttribute,
+/// reconstruct_ordered).
 struct PipelineInput {
   const ParticleSet& particles;
   const Params& params;
@@ -23,6 +27,7 @@ struct PipelineInput {
   const std::vector<float>& volumes;
   const Attribute* velocity;
   bool order_keys = false;
+  std::span<const uint32_t> coincident = {};
 };
 
 /// A backend's side of the plan: one function per stage. run_stages calls them in the plan's

@@ -145,6 +145,8 @@ void print_table(const Scene& scene, const Params& p, const std::vector<Column>&
   row("triangles", [](const Column& c) { return std::to_string(c.quality.triangles); });
   row("components", [](const Column& c) { return std::to_string(c.quality.components); });
   row("watertight", [](const Column& c) { return std::string(c.quality.watertight ? "yes" : "no"); });
+  row("genus", [](const Column& c) { return c.quality.genus < 0 ? std::string("-") : std::to_string(c.quality.genus); });
+  row("volume / (N d^3)", [](const Column& c) { return fmt::format("{:.3f}", c.quality.volume_over_nd3); });
   row("min valence", [](const Column& c) { return std::to_string(c.quality.min_valence); });
   row("valence < 5 [%]", [](const Column& c) { return fmt::format("{:.2f}", 100 * c.quality.share_valence_below_5); });
   row("min angle [deg]", [](const Column& c) { return fmt::format("{:.2f}", c.quality.min_angle_degrees); });
@@ -278,6 +280,8 @@ int main(int argc, char** argv) {
                         {"triangles", q.triangles},
                         {"components", q.components},
                         {"watertight", q.watertight},
+                        {"genus", q.genus},
+                        {"volume_over_particle_volume", q.volume_over_nd3},
                         {"min_valence", q.min_valence},
                         {"share_valence_below_5", q.share_valence_below_5},
                         {"min_angle_degrees", q.min_angle_degrees},

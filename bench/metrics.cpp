@@ -25,6 +25,9 @@ MeshQuality measure_quality(const TriangleMesh& mesh, const Scene& scene, std::s
   q.triangles = topo.triangles;
   q.components = topo.components;
   q.watertight = topo.watertight();
+  q.genus = topo.watertight() ? topo.genus() : -1;
+  const double d = scene.spacing;
+  q.volume_over_nd3 = std::abs(signed_volume(mesh)) / (double(scene.particles.size()) * d * d * d);
   const ValenceReport val = valence(mesh);
   q.min_valence = val.min;
   q.share_valence_below_5 = topo.vertices ? double(val.below_5) / double(topo.vertices) : 0;

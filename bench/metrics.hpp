@@ -13,6 +13,8 @@ namespace meniscus::bench {
 struct MeshQuality {
   std::size_t vertices = 0, triangles = 0, components = 0;
   bool watertight = false;
+  long long genus = -1;         ///< holes and tunnels through the surface (−1: not watertight)
+  double volume_over_nd3 = 0;   ///< enclosed volume / (particles · d³)
   int min_valence = 0;
   double share_valence_below_5 = 0;
   double min_angle_degrees = 0, share_angles_below_10 = 0;

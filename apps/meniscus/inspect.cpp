@@ -50,9 +50,11 @@ int run_inspect_sequence(const InspectArgs& a, const FramePattern& pattern) {
     not_watertight += t.watertight() ? 0 : 1;
     nlohmann::ordered_json j = {{"frame", frame}, {"mesh", file}, {"vertices", mesh.vertices.size()},
                                 {"triangles", mesh.triangles.size()}, {"watertight", t.watertight()},
-                                {"components", t.components}};
+                                {"components", t.components},
+                                {"genus", t.watertight() ? nlohmann::ordered_json(t.genus()) : nlohmann::ordered_json(nullptr)}};
     std::string line = fmt::format("frame {}: {} vertices, {} triangles, {}", frame, mesh.vertices.size(),
                                    mesh.triangles.size(), t.watertight() ? "watertight" : "NOT watertight");
+    if (t.watertight()) line += fmt::format(", {} component(s), genus {}", t.components, t.genus());
     if (a.flicker && previous) {
       double cap = a.flicker_cap == 0 ? INFINITY : a.flicker_cap;
       if (a.flicker_cap < 0) cap = spacing > 0 ? kFlickerCapSpacings * spacing : kFlickerCapEdges * mean_edge_length(*previous);
@@ -106,7 +108,9 @@ int run_inspect(const InspectArgs& a) {
   j["triangles"] = mesh.triangles.size();
   j["topology"] = {{"watertight", t.watertight()}, {"closed", t.closed()}, {"edge_manifold", t.edge_manifold()},
                    {"vertex_manifold", t.nonmanifold_vertices == 0}, {"oriented", t.oriented()},
-                   {"components", t.components}, {"euler", t.euler}, {"boundary_edges", t.boundary_edges},
+                   {"components", t.components}, {"euler", t.euler},
+                   {"genus", t.watertight() ? nlohmann::ordered_json(t.genus()) : nlohmann::ordered_json(nullptr)},
+                   {"boundary_edges", t.boundary_edges},
                    {"nonmanifold_edges", t.nonmanifold_edges}, {"misoriented_edges", t.misoriented_edges},
                    {"nonmanifold_vertices", t.nonmanifold_vertices}, {"degenerate_triangles", t.degenerate_triangles},
                    {"unreferenced_vertices", t.unreferenced_vertices}};
@@ -153,9 +157,10 @@ int run_inspect(const InspectArgs& a) {
     return 0;
   }
   fmt::print("{}: {} vertices, {} triangles\n", printable(a.mesh), mesh.vertices.size(), mesh.triangles.size());
-  fmt::print("topology: {} — {} component(s), Euler characteristic {}; {} boundary, {} non-manifold, {} misoriented edges; "
+  fmt::print("topology: {} — {} component(s), Euler characteristic {}{}; {} boundary, {} non-manifold, {} misoriented edges; "
              "{} non-manifold vertices; {} degenerate triangles\n",
-             t.watertight() ? "watertight" : "NOT watertight", t.components, t.euler, t.boundary_edges,
+             t.watertight() ? "watertight" : "NOT watertight", t.components, t.euler,
+             t.watertight() ? fmt::format(", genus {} (holes and tunnels through it)", t.genus()) : "", t.boundary_edges,
              t.nonmanifold_edges, t.misoriented_edges, t.nonmanifold_vertices, t.degenerate_triangles);
   fmt::print("valence: min {}, max {}, mean {:.2f}; {:.2f} % under 5\n", v.min, v.max, v.mean,
              100.0 * j["valence"]["share_below_5"].get<double>());

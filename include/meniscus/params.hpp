@@ -67,6 +67,10 @@ struct Params {
   /// Keep interior voids smaller than (2d)³ (closed inward-facing components: gaps in the
   /// particle sampling, which the smoothing would collapse); by default they are removed.
   bool keep_voids = false;
+  /// Bridge the pinholes of thin water: a particle added in the middle of each hole through the
+  /// outer balls that a ring of touching particles encloses in a plane, no wider than 1.2 d from
+  /// its middle to the ring (docs/method.md "Pinholes"). Never joins what was apart.
+  bool fill_pinholes = false;
 
   // --- smoothing schedule (Williams 2008) -------------------------------------------------------
   int steps_a = 20;            ///< constrained graph-Laplacian (A) sweeps

@@ -27,6 +27,9 @@ struct TopologyReport {
   bool closed() const { return boundary_edges == 0; }
   bool edge_manifold() const { return nonmanifold_edges == 0; }
   bool oriented() const { return misoriented_edges == 0; }
+  /// Handles (holes and tunnels through the surface) summed over the components: C − χ/2.
+  /// Meaningful for a watertight mesh.
+  long long genus() const { return (long long)components - euler / 2; }
   bool watertight() const {
     return closed() && edge_manifold() && oriented() && nonmanifold_vertices == 0;
   }

@@ -53,6 +53,11 @@ struct Stats {
   std::size_t removed_blobs = 0;       ///< kernel fields: blobs enclosing no particle or smaller than an inner shell
   std::size_t flipped_triangles = 0;   ///< triangles whose normal reversed during erosion
   std::size_t removed_strays = 0;      ///< components enclosing fewer than min_particles particles
+  std::size_t pinhole_bridges = 0;     ///< particles added across pinholes of thin water
+  std::size_t components = 0;          ///< connected pieces of the written surface
+  /// Handles of the written surface (holes and tunnels through it: components − χ/2, χ = V − E + F);
+  /// −1 when it is not closed (a clip without a cap, or a cap with open edges).
+  long long genus = -1;
   std::size_t particles_outside_box = 0;  ///< particles ignored by particle_box
   std::size_t clipped_triangles = 0;   ///< clip_box: triangles wholly outside the box, removed
   std::size_t cut_triangles = 0;       ///< clip_box: triangles crossing a face, replaced by their part inside

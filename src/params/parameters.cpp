@@ -89,6 +89,10 @@ const std::vector<Entry>& entries() {
           {"tiles", "cubes", "tetrahedra"});
     other("keep_voids", ParamType::flag, "geometry", "keep interior voids smaller than (2 d)³ (removed by default)",
           MENISCUS_MEMBER(keep_voids));
+    other("fill_pinholes", ParamType::flag, "geometry",
+          "bridge the pinholes of thin sheets: a particle added in each hole that a ring of touching particles "
+          "encloses, up to 1.2 d from its middle to the ring; never joins droplets (docs/method.md)",
+          MENISCUS_MEMBER(fill_pinholes));
 
     // --- field method
     other("field", ParamType::choice, "field", "field method: distance, metaball, sph, zhu-bridson, anisotropic (docs/fields.md)",

@@ -16,6 +16,9 @@
 #include "post/clip.hpp"
 #include "post/strays.hpp"
 #include "post/decimate.hpp"
+#include "grid/hash_grid.hpp"
+#include "grid/pinholes.hpp"
+#include "mesh/components.hpp"
 #include "mesh/voids.hpp"
 #include "meniscus/backend.hpp"
 #include "meniscus/distributed.hpp"
@@ -75,6 +78,42 @@ const Attribute* check_inputs(const ParticleSet& particles, const Params& params
     throw InvalidParameter("velocity_weighted: the particles have no velocity attribute (v, vel or velocity with 3 "
                            "components); surface without --velocity-weighted");
   return velocity;
+}
+
+/// The particles with a bridge across each pinhole of thin water (grid/pinholes.hpp); a bridge
+/// takes the attribute values of the particle nearest to it. Empty when there is no pinhole.
+ParticleSet with_pinhole_bridges(const ParticleSet& particles, const Params& p, Stats& stats) {
+  const std::vector<Vec3f> bridges = pinhole_bridges(particles.positions, pinhole_settings(p.spacing, p.r_outer));
+  stats.pinhole_bridges = bridges.size();
+  if (bridges.empty()) return {};
+  ParticleSet out = particles;
+  out.positions.insert(out.positions.end(), bridges.begin(), bridges.end());
+  if (!particles.attributes.empty()) {
+    const HashGrid grid(particles.positions, float(p.r_outer));
+    for (const Vec3f& b : bridges) {
+      const uint32_t nearest = grid.order()[grid_nearest(grid, b).index];
+      for (Attribute& a : out.attributes) {
+        const std::size_t c = std::size_t(a.components);
+        for (std::size_t k = 0; k < c; ++k) a.values.push_back(a.values[nearest * c + k]);
+      }
+    }
+  }
+  return out;
+}
+
+/// The written surface's components and, when it is closed, its genus: a closed triangle mesh
+/// has E = 3F/2, so χ = V − F/2 and genus = C − χ/2 summed over its components.
+void count_handles(const TriangleMesh& mesh, const Params& p, Stats& stats) {
+  const std::vector<uint32_t> root = component_roots(mesh.vertices.size(), mesh.triangles);
+  std::vector<uint8_t> used(mesh.vertices.size(), 0);
+  for (const Triangle& t : mesh.triangles) used[t[0]] = used[t[1]] = used[t[2]] = 1;
+  long long v = 0, c = 0;
+  for (std::size_t i = 0; i < root.size(); ++i)
+    if (used[i]) ++v, c += root[i] == i ? 1 : 0;
+  stats.components = std::size_t(c);
+  const bool closed = p.clip_box.empty() || (p.clip_cap && stats.cap_open_edges == 0);
+  const long long f = (long long)mesh.triangles.size();
+  stats.genus = closed && f % 2 == 0 ? c - (v - f / 2) / 2 : -1;
 }
 
 /// Warnings about resolved parameters that will not give what the user expects.
@@ -244,14 +283,18 @@ Result reconstruct_keyed(const ParticleSet& all_particles, const Params& params,
   const Grant memory = memory_limit(given.max_memory_gb);
   given.max_memory_gb = memory.amount / 1e9;
   stats.max_memory_from = memory.source;
-  // The parameters, then the coincident particles (a near-coincident pile made exact copies of
-  // its first particle, which the stages' queries skip).
+  // The parameters, the bridges across pinholes (fill_pinholes), then the coincident particles (a
+  // near-coincident pile made exact copies of its first particle, which the stages' queries skip).
   CoincidentParticles coincident;
+  ParticleSet bridged;  // the particles and the bridges across pinholes, when there are any
   Params p = StageTimer(stats, progress).run("parameters", [&] {
     Params resolved = resolve_params(particles, given);
-    coincident = coincident_particles(particles, resolved);
+    if (resolved.fill_pinholes) bridged = with_pinhole_bridges(particles, resolved, stats);
+    coincident = coincident_particles(bridged.positions.empty() ? particles : bridged, resolved);
     return resolved;
   });
+  const ParticleSet& input = bridged.positions.empty() ? particles : bridged;
+  if (!bridged.positions.empty()) velocity = velocity_attribute(input);
   stats.spacing_estimated = params.spacing == 0;
   stats.particles = particles.size();
   stats.threads = p.threads;
@@ -259,10 +302,10 @@ Result reconstruct_keyed(const ParticleSet& all_particles, const Params& params,
   result.params = p;
   // SPH volumes per original particle for the sph and anisotropic fields (empty: uniform d³).
   const std::vector<float> volumes = p.field == FieldMethod::sph || p.field == FieldMethod::anisotropic
-                                         ? particle_volumes(particles, p.spacing, p.rest_density)
+                                         ? particle_volumes(input, p.spacing, p.rest_density)
                                          : std::vector<float>{};
   const StagePlan plan = plan_stages(p);  // both backends run these stages, in run_stages' order
-  const ParticleSet& surfaced = coincident.moved ? *coincident.moved : particles;
+  const ParticleSet& surfaced = coincident.moved ? *coincident.moved : input;
   const PipelineInput in{surfaced, p, plan, volumes, velocity, keys != nullptr, coincident.first};
   if (keys != nullptr || !run_on_device(in, result, progress)) {
     stats.backend = "cpu";
@@ -298,6 +341,7 @@ Result reconstruct_keyed(const ParticleSet& all_particles, const Params& params,
   }
   stats.vertices = result.mesh.vertices.size();
   stats.triangles = result.mesh.triangles.size();
+  count_handles(result.mesh, p, stats);
   stats.peak_memory_bytes = peak_resident_bytes();
   return result;
 }

@@ -15,6 +15,7 @@
 #include "field/kernel_impl.hpp"
 #include "grid/coincident.hpp"
 #include "grid/key_index.hpp"
+#include "grid/pinholes.hpp"
 #include "extract/field_band.hpp"
 #include "meniscus/distributed.hpp"
 #include "meniscus/errors.hpp"
@@ -343,7 +344,9 @@ double local_reach(const Params& p) {
   const int rings = smoothing_rings(smooth_schedule(p)) + (p.erode > 0 ? 1 : 0);
   // The simplification reads the finished mesh around a triangle (post/decimate.hpp).
   const double simplified = p.decimate > 0 ? decimate_reach(decimate_cell_spacings(p.decimate) * d) : 0;
-  return rings * edge + std::max(field, projection) + simplified;
+  // A bridge across a pinhole is a particle like the others, made from the particles near it.
+  const double bridges = p.fill_pinholes ? pinhole_reach(pinhole_settings(d, p.r_outer)) : 0;
+  return rings * edge + std::max(field, projection) + simplified + bridges;
 }
 
 Params resolve_frame_estimates(const ParticleSet& particles, const Params& params) {

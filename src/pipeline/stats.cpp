@@ -20,6 +20,12 @@ std::string stats_to_json(const Result& result) {
   j["particles"] = s.particles;
   j["vertices"] = s.vertices;
   j["triangles"] = s.triangles;
+  j["pinhole_bridges"] = s.pinhole_bridges;
+  j["components"] = s.components;
+  if (s.genus >= 0)
+    j["genus"] = s.genus;
+  else
+    j["genus"] = nullptr;  // not closed
   j["field_blocks"] = s.field_blocks;
   j["dropped_triangles"] = s.dropped_triangles;
   j["removed_voids"] = s.removed_voids;

@@ -257,6 +257,15 @@ TEST(Cli, TheSummarySpeaksPlainlyWithUnitsAndASequenceShowsTheTimeLeft) {
   EXPECT_NE(out.find("time per stage: read 0."), std::string::npos) << out;
   EXPECT_NE(out.find(" threads (") == std::string::npos ? out.find(" thread (") : out.find(" threads ("), std::string::npos)
       << out;
+  // The surface's pieces and genus, as inspect counts them on the written mesh.
+  std::string inspected;
+  ASSERT_EQ(run_command(cli() + " inspect " + tmp.file("m.ply") + " --json", &inspected), 0) << inspected;
+  const nlohmann::json topology = nlohmann::json::parse(inspected.substr(inspected.find('{')))["topology"];
+  EXPECT_NE(out.find(fmt::format("{} piece{}, genus {} (holes and tunnels", topology["components"].get<std::size_t>(),
+                                 topology["components"].get<std::size_t>() == 1 ? "" : "s",
+                                 topology["genus"].get<long long>())),
+            std::string::npos)
+      << out;
   // A sequence: the time left on its bar, and the change between frames in spacings.
   const std::string sequence = cli() + " surface \"" + test::data_file("sequence/fluid_####.bgeo.sc") +
                                "\" --frames 1-6 -o \"" + tmp.file("s_####.ply") + "\"";

@@ -180,6 +180,33 @@ TEST(Pipeline, SphereIsGenusZeroWithTheExpectedRadius) {
   EXPECT_GT(signed_volume(r.mesh), 0);
 }
 
+// The summary's pieces and genus: a solid ring of particles (one tunnel) and a ball apart from it
+// give 2 pieces and genus 1, as inspect counts them from the mesh's Euler characteristic; a clip
+// without a cap leaves the surface open, and the genus unstated.
+TEST(Pipeline, StatsCountThePiecesAndTheTunnelsThroughTheSurface) {
+  const float d = 0.1f;
+  ParticleSet ps;
+  for (float x = -2.0f; x <= 2.0f; x += d)
+    for (float y = -2.0f; y <= 2.0f; y += d)
+      for (float z = -0.3f; z <= 0.3f; z += d) {
+        const float rho = std::sqrt(x * x + y * y);
+        if (std::hypot(rho - 1.5f, z) <= 0.35f) ps.positions.push_back({x, y, z});
+      }
+  for (const Vec3f& b : lattice_ball(0.5f, d, {4.0f, 0, 0}).positions) ps.positions.push_back(b);
+  Result r = reconstruct(ps, block_params(d));
+  const TopologyReport t = analyze_topology(r.mesh);
+  ASSERT_TRUE(t.watertight());
+  EXPECT_EQ(r.stats.components, 2u);
+  EXPECT_EQ(r.stats.genus, 1);
+  EXPECT_EQ(r.stats.components, t.components);
+  EXPECT_EQ(r.stats.genus, t.genus());
+  Params clipped = block_params(d);
+  clipped.clip_box = {-3, -3, -3, 3, 3, 0};
+  r = reconstruct(ps, clipped);
+  EXPECT_EQ(r.stats.genus, -1);
+  EXPECT_EQ(r.stats.components, 1u);  // the ball lies outside the box
+}
+
 TEST(Pipeline, ConstrainedScheduleLeavesEveryVertexInsideTheShell) {
   const float d = 0.1f;
   Params p = block_params(d);

@@ -114,7 +114,11 @@ PinholeSettings pinhole_settings(double spacing, double r_outer) {
 }
 
 double pinhole_reach(const PinholeSettings& s) {
-  return double(s.reach) + 2.0 * double(s.plane_tolerance) + 2.0 * double(s.r_outer);
+  // A probe reads the 27 cells (of edge reach + plane tolerance) round its own, up to 2√3 cells
+  // away (the merge test's 2·r_outer round the bridge lies within them); its bridge lies within
+  // the plane tolerance of it, in a cube (of edge r_outer/2) whose first probe wins.
+  const double cell = double(s.reach) + double(s.plane_tolerance);
+  return 2.0 * std::sqrt(3.0) * cell + double(s.plane_tolerance) + 0.5 * std::sqrt(3.0) * double(s.r_outer) / 2.0;
 }
 
 std::vector<Vec3f> pinhole_bridges(std::span<const Vec3f> points, const PinholeSettings& s) {
@@ -140,19 +144,24 @@ std::vector<Vec3f> pinhole_bridges(std::span<const Vec3f> points, const PinholeS
   for_each_index(cells.size(), 64, [&](std::size_t ci) {
     const Vec3i c = unpack_coords(cells[ci]);
     // The particles that may cover a probe of this cell, its own cell's first.
+    // A cell with water in all 27 round it lies deep in the water, 1.8 d or more from any
+    // empty cell: a pinhole's sheet has empty cells on both sides.
     std::vector<Vec3f> cover;
+    int empty = 0;
     {
       const auto own = grid.cell_range(c);
+      empty += own.first == own.second;
       for (uint32_t i = own.first; i < own.second; ++i) cover.push_back(grid.point(i));
       for (int dz = -1; dz <= 1; ++dz)
         for (int dy = -1; dy <= 1; ++dy)
           for (int dx = -1; dx <= 1; ++dx) {
             if (dx == 0 && dy == 0 && dz == 0) continue;
             const auto range = grid.cell_range(Vec3i{c.x + dx, c.y + dy, c.z + dz});
+            empty += range.first == range.second;
             for (uint32_t i = range.first; i < range.second; ++i) cover.push_back(grid.point(i));
           }
     }
-    if (cover.empty()) return;  // every probe here is farther than reach from all: no hole's middle
+    if (cover.empty() || empty == 0) return;  // far from all, or deep in the water: no hole's middle
     std::size_t last = 0;
     // The cell in 3×3×3 parts: a part whose every point is within r_outer of a particle, or whose
     // every point is farther than reach from all, has no probe to test.

@@ -36,8 +36,8 @@ struct PinholeSettings {
 /// 0.6 d, probes 0.3 d apart.
 PinholeSettings pinhole_settings(double spacing, double r_outer);
 
-/// How far from a bridge the particles that decide it lie (reach + plane tolerance, and the
-/// balls it touches): what locality adds for bridges.
+/// How far from a bridge the particles that decide it lie (the cells its probes read, 7.3 d by
+/// default): what locality adds for bridges.
 double pinhole_reach(const PinholeSettings& s);
 
 /// The bridges for `points`, in the order of the cubes of edge r_outer / 2 (a lattice at the

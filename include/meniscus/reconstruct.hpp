@@ -142,8 +142,9 @@ Params resolve_frame_estimates(const ParticleSet& particles, const Params& param
 /// (volume of a ball of 2.5 NN-distances / particles in it)^(1/3) — the nearest-neighbour
 /// distance alone underestimates the rest spacing of disordered SPH fluid (docs/cli.md "Spacing"), which
 /// leaves holes in the surface. Coincident particles (copies, or within 1e-4 of the search cells,
-/// about 1e-4 d, of one another) are one position in the nearest-neighbour distances and count
-/// in the density spacing: a pile has no spacing of its own, and costs no more than one particle.
+/// about 1e-4 d, of one another) are one position in the nearest-neighbour distances, count in
+/// the density round the samples near them and are never samples themselves (unless every sample
+/// falls in a pile): a pile has no spacing of its own, and costs no more than one particle.
 /// Estimated from a deterministic sample of at most `max_samples` particles.
 double estimate_spacing(const ParticleSet& particles, std::size_t max_samples = 50000);
 

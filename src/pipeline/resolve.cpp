@@ -202,15 +202,25 @@ double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::s
   if (groups.copies > 0 || search_cell != cell) site_grid.emplace(sites, search_cell);
   const HashGrid& search = site_grid ? *site_grid : grid;
   const std::size_t samples = std::min(n, max_samples);
-  const std::size_t stride = n / samples;
-  auto held_index = [&](std::size_t s) { return s * stride >= first && s * stride < first + held; };
+  // Sample s is particle s·n/samples: spread over the whole frame (a pile at its start or end is
+  // one stretch of the indices, not all of the samples).
+  auto index_of = [&](std::size_t s) { return std::size_t(uint64_t(s) * uint64_t(n) / uint64_t(samples)); };
+  auto held_index = [&](std::size_t s) { return index_of(s) >= first && index_of(s) < first + held; };
   // Every sample's position, from the part that holds it.
   std::vector<float> at(3 * samples, INFINITY);
   for (std::size_t s = 0; s < samples; ++s)
     if (held_index(s))
-      for (int c = 0; c < 3; ++c) at[3 * s + std::size_t(c)] = part.positions[s * stride - first][c];
+      for (int c = 0; c < 3; ++c) at[3 * s + std::size_t(c)] = part.positions[index_of(s) - first][c];
   reduce.min(at);
   auto sample = [&](std::size_t s) { return Vec3f{at[3 * s], at[3 * s + 1], at[3 * s + 2]}; };
+  // A sample that is a copy in a pile (not the first of its group) stands for no site of its own:
+  // it is left out of both statistics, so a pile that is most of the frame does not make most of
+  // the samples (its first particle is one sample, as any particle).
+  std::vector<uint64_t> copy(samples, 0);
+  if (groups.copies > 0)
+    for (std::size_t s = 0; s < samples; ++s)
+      if (held_index(s) && groups.first[index_of(s) - first] != index_of(s) - first) copy[s] = 1;
+  reduce.sum(copy);
 
   // The nearest other site of each sample (squared distance > coincident2): a bound from the
   // part that holds the sample (the nearest within it, by growing spheres), then the minimum over
@@ -246,8 +256,13 @@ double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::s
   }
   std::vector<float> nn;
   nn.reserve(samples);
-  for (float d2 : nearest)
-    if (std::isfinite(d2)) nn.push_back(std::sqrt(d2));
+  for (std::size_t s = 0; s < samples; ++s)
+    if (std::isfinite(nearest[s]) && copy[s] == 0) nn.push_back(std::sqrt(nearest[s]));
+  if (nn.empty()) {  // every sample fell in a pile: the copies' distances are the pile's first's
+    std::fill(copy.begin(), copy.end(), 0);
+    for (float d2 : nearest)
+      if (std::isfinite(d2)) nn.push_back(std::sqrt(d2));
+  }
   if (nn.empty()) throw InputError("cannot estimate the particle spacing: no two distinct particles");
   auto mid = nn.begin() + std::ptrdiff_t(nn.size() / 2);
   std::nth_element(nn.begin(), mid, nn.end());
@@ -268,9 +283,11 @@ double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::s
     counts[s] = count;
   });
   reduce.sum(counts);
-  std::vector<float> local(samples);
+  std::vector<float> local;
+  local.reserve(samples);
   for (std::size_t s = 0; s < samples; ++s)
-    local[s] = std::cbrt(4.18879f * radius * radius * radius / float(std::max<uint64_t>(counts[s], 1)));
+    if (copy[s] == 0)
+      local.push_back(std::cbrt(4.18879f * radius * radius * radius / float(std::max<uint64_t>(counts[s], 1))));
   auto quartile = local.begin() + std::ptrdiff_t(local.size() / 4);
   std::nth_element(local.begin(), quartile, local.end());
   return double(std::max(median_nn, *quartile));

@@ -20,7 +20,7 @@ namespace {
 constexpr int kMaxRing = 64;
 
 struct Candidate {
-  uint64_t cube;     ///< the cube of edge r_outer/2 the bridge falls in (pack_coords)
+  int64_t cube[3];   ///< the cube of edge r_outer/2 the bridge falls in (x, y, z)
   int64_t probe[3];  ///< the probe's lattice coordinates (z, y, x): the first one wins a cube
   Vec3f bridge;
 };
@@ -143,9 +143,9 @@ std::vector<Vec3f> pinhole_bridges(std::span<const Vec3f> points, const PinholeS
   const float r2 = s.r_outer * s.r_outer, reach2 = s.reach * s.reach;
   for_each_index(cells.size(), 64, [&](std::size_t ci) {
     const Vec3i c = unpack_coords(cells[ci]);
-    // The particles that may cover a probe of this cell, its own cell's first.
-    // A cell with water in all 27 round it lies deep in the water, 1.8 d or more from any
-    // empty cell: a pinhole's sheet has empty cells on both sides.
+    // The particles a probe of this cell may read, its own cell's first. A cell with water in all
+    // 27 round it lies deep in the water, 1.8 d or more from any empty cell: a pinhole's sheet has
+    // empty cells on both sides.
     std::vector<Vec3f> cover;
     int empty = 0;
     {
@@ -199,19 +199,21 @@ std::vector<Vec3f> pinhole_bridges(std::span<const Vec3f> points, const PinholeS
           if (phi2 <= r2 || phi2 > reach2) continue;
           Vec3f g;
           if (!probe_bridge(grid, s, cover, at, &g)) continue;
-          const uint64_t key = pack_coords(int32_t(std::floor(g.x / cube)), int32_t(std::floor(g.y / cube)),
-                                           int32_t(std::floor(g.z / cube)));
-          found[ci].push_back({key, {z, y, x}, g});
+          found[ci].push_back({{int64_t(std::floor(double(g.x) / cube)), int64_t(std::floor(double(g.y) / cube)),
+                                int64_t(std::floor(double(g.z) / cube))},
+                               {z, y, x},
+                               g});
         }
   });
   std::vector<Candidate> all;
   for (const std::vector<Candidate>& f : found) all.insert(all.end(), f.begin(), f.end());
   std::sort(all.begin(), all.end(), [](const Candidate& a, const Candidate& b) {
-    return std::tie(a.cube, a.probe[0], a.probe[1], a.probe[2]) < std::tie(b.cube, b.probe[0], b.probe[1], b.probe[2]);
+    return std::tie(a.cube[0], a.cube[1], a.cube[2], a.probe[0], a.probe[1], a.probe[2]) <
+           std::tie(b.cube[0], b.cube[1], b.cube[2], b.probe[0], b.probe[1], b.probe[2]);
   });
   std::vector<Vec3f> bridges;
   for (std::size_t i = 0; i < all.size(); ++i)
-    if (i == 0 || all[i].cube != all[i - 1].cube) bridges.push_back(all[i].bridge);
+    if (i == 0 || !std::equal(all[i].cube, all[i].cube + 3, all[i - 1].cube)) bridges.push_back(all[i].bridge);
   return bridges;
 }
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <mutex>
 #include <numbers>
 #include <tuple>
 
@@ -127,18 +128,24 @@ std::vector<Vec3f> pinhole_bridges(std::span<const Vec3f> points, const PinholeS
   // round its own, gathered once for the probes of a cell.
   const float cell = s.reach + s.plane_tolerance;
   const HashGrid grid(points, cell);
-  // The cells a hole's probes may lie in: the occupied ones and their neighbours.
-  std::vector<uint64_t> cells;
-  cells.reserve(grid.cell_keys().size() * 27);
+  // The cells a hole's probes may lie in: the occupied ones and their empty neighbours (only the
+  // water's edge has those, so the list stays about as long as the occupied cells').
+  std::vector<uint64_t> cells(grid.cell_keys().begin(), grid.cell_keys().end());
   for (const uint64_t key : grid.cell_keys()) {
     const Vec3i c = unpack_coords(key);
     for (int dz = -1; dz <= 1; ++dz)
       for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) cells.push_back(pack_coords(c.x + dx, c.y + dy, c.z + dz));
+        for (int dx = -1; dx <= 1; ++dx) {
+          const Vec3i n{c.x + dx, c.y + dy, c.z + dz};
+          const auto range = grid.cell_range(n);
+          if (range.first == range.second) cells.push_back(pack_coords(n.x, n.y, n.z));
+        }
   }
   std::sort(cells.begin(), cells.end());
   cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
-  std::vector<std::vector<Candidate>> found(cells.size());
+  // The candidates, in any order (sorted below): the few cells that find any append them.
+  std::vector<Candidate> all;
+  std::mutex appending;
   const double h = s.probe_step, cube = 0.5 * double(s.r_outer);
   const float r2 = s.r_outer * s.r_outer, reach2 = s.reach * s.reach;
   for_each_index(cells.size(), 64, [&](std::size_t ci) {
@@ -182,6 +189,7 @@ std::vector<Vec3f> pinhole_bridges(std::span<const Vec3f> points, const PinholeS
       lo[a] = int64_t(std::ceil(double(c[a]) * cell / h));
       hi[a] = int64_t(std::ceil(double(c[a] + 1) * cell / h));
     }
+    std::vector<Candidate> found;
     for (int64_t z = lo[2]; z < hi[2]; ++z)
       for (int64_t y = lo[1]; y < hi[1]; ++y)
         for (int64_t x = lo[0]; x < hi[0]; ++x) {
@@ -199,14 +207,16 @@ std::vector<Vec3f> pinhole_bridges(std::span<const Vec3f> points, const PinholeS
           if (phi2 <= r2 || phi2 > reach2) continue;
           Vec3f g;
           if (!probe_bridge(grid, s, cover, at, &g)) continue;
-          found[ci].push_back({{int64_t(std::floor(double(g.x) / cube)), int64_t(std::floor(double(g.y) / cube)),
+          found.push_back({{int64_t(std::floor(double(g.x) / cube)), int64_t(std::floor(double(g.y) / cube)),
                                 int64_t(std::floor(double(g.z) / cube))},
                                {z, y, x},
                                g});
         }
+    if (!found.empty()) {
+      const std::lock_guard<std::mutex> lock(appending);
+      all.insert(all.end(), found.begin(), found.end());
+    }
   });
-  std::vector<Candidate> all;
-  for (const std::vector<Candidate>& f : found) all.insert(all.end(), f.begin(), f.end());
   std::sort(all.begin(), all.end(), [](const Candidate& a, const Candidate& b) {
     return std::tie(a.cube[0], a.cube[1], a.cube[2], a.probe[0], a.probe[1], a.probe[2]) <
            std::tie(b.cube[0], b.cube[1], b.cube[2], b.probe[0], b.probe[1], b.probe[2]);

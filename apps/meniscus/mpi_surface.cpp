@@ -270,20 +270,12 @@ class GatheredMesh {
       writer_->add_vertices(batch);
       return;
     }
-    if (!started_) {
-      for (const Attribute& a : batch.attributes) mesh_.attributes.push_back({a.name, a.components, a.integer, {}});
-      started_ = true;
-    }
-    mesh_.vertices.insert(mesh_.vertices.end(), batch.vertices.begin(), batch.vertices.end());
-    mesh_.normals.insert(mesh_.normals.end(), batch.normals.begin(), batch.normals.end());
-    for (std::size_t a = 0; a < mesh_.attributes.size(); ++a)
-      mesh_.attributes[a].values.insert(mesh_.attributes[a].values.end(), batch.attributes[a].values.begin(),
-                                        batch.attributes[a].values.end());
+    append_gathered_vertices(mesh_, batch);
   }
   /// After the last vertex: `layout` for a mesh without any (its attribute names).
   void vertices_done(const TriangleMesh& layout) {
     if (streamed_ && !writer_) writer_.emplace(path_, vertices_, triangles_, layout);
-    if (!streamed_ && !started_) mesh_.attributes = layout.attributes;
+    if (!streamed_ && mesh_.attributes.empty()) mesh_.attributes = layout.attributes;
   }
   void add_triangles(const std::vector<Triangle>& batch) {
     if (streamed_)
@@ -303,7 +295,6 @@ class GatheredMesh {
   std::size_t vertices_, triangles_;
   std::optional<io::PlyMeshWriter> writer_;
   TriangleMesh mesh_;
-  bool started_ = false;
 };
 
 /// MPI_Allreduce as the frame-wide estimates' reductions (distributed.hpp).

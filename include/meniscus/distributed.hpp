@@ -234,6 +234,10 @@ class OrderedGather {
   std::vector<Seam> seams_;  // sorted by key after number_vertices
 };
 
+/// Appends a batch that OrderedGather::merge_vertices emitted (positions, normals, attribute
+/// values) to `mesh`; the first batch with attributes gives a mesh without any their layout.
+void append_gathered_vertices(TriangleMesh& mesh, const TriangleMesh& batch);
+
 /// Part `part`'s chunks from `first` on (none past its end): its keys, and once placed its vertices
 /// and triangles.
 OrderedGather::KeyChunk key_chunk(const OrderedPart& part, std::size_t first);

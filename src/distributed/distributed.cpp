@@ -620,6 +620,16 @@ void OrderedGather::merge_vertices(const std::function<VertexChunk(std::size_t)>
   merge_by_index<VertexChunk, TriangleMesh>(parts_, next, "vertex", vertices_, batch, emit_batch, append, check);
 }
 
+void append_gathered_vertices(TriangleMesh& mesh, const TriangleMesh& batch) {
+  if (mesh.attributes.empty())
+    for (const Attribute& a : batch.attributes) mesh.attributes.push_back({a.name, a.components, a.integer, {}});
+  mesh.vertices.insert(mesh.vertices.end(), batch.vertices.begin(), batch.vertices.end());
+  mesh.normals.insert(mesh.normals.end(), batch.normals.begin(), batch.normals.end());
+  for (std::size_t a = 0; a < mesh.attributes.size(); ++a)
+    mesh.attributes[a].values.insert(mesh.attributes[a].values.end(), batch.attributes[a].values.begin(),
+                                     batch.attributes[a].values.end());
+}
+
 void OrderedGather::merge_triangles(const std::function<TriangleChunk(std::size_t)>& next,
                                     const std::function<void(const std::vector<Triangle>&)>& emit) {
   const auto check = [](std::size_t p, const TriangleChunk& c) {
@@ -666,7 +676,6 @@ TriangleMesh gather_ordered(std::vector<OrderedPart> parts) {
   for (std::size_t p = 0; p < k; ++p) gather_normals(parts[p], placed[p], stride, std::move(received[p]));
   // The mesh, vertices then triangles.
   TriangleMesh out;
-  bool started = false;
   std::vector<std::size_t> next_vertex(k, 0), next_triangle(k, 0);
   gather.merge_vertices(
       [&](std::size_t p) {
@@ -674,18 +683,8 @@ TriangleMesh gather_ordered(std::vector<OrderedPart> parts) {
         next_vertex[p] += c.index.size();
         return c;
       },
-      [&](const TriangleMesh& batch) {
-        if (!started) {
-          for (const Attribute& a : batch.attributes) out.attributes.push_back({a.name, a.components, a.integer, {}});
-          started = true;
-        }
-        out.vertices.insert(out.vertices.end(), batch.vertices.begin(), batch.vertices.end());
-        out.normals.insert(out.normals.end(), batch.normals.begin(), batch.normals.end());
-        for (std::size_t a = 0; a < out.attributes.size(); ++a)
-          out.attributes[a].values.insert(out.attributes[a].values.end(), batch.attributes[a].values.begin(),
-                                          batch.attributes[a].values.end());
-      });
-  if (!started) out.attributes = gather.layout().attributes;
+      [&](const TriangleMesh& batch) { append_gathered_vertices(out, batch); });
+  if (out.attributes.empty()) out.attributes = gather.layout().attributes;
   gather.merge_triangles(
       [&](std::size_t p) {
         OrderedGather::TriangleChunk c = triangle_chunk(placed[p], next_triangle[p]);

@@ -1,10 +1,16 @@
 // meniscus — the emulated CUDA device (MENISCUS_CUDA_EMULATION, tests only; never installed):
 // a stand-in for the part of the CUDA runtime the backend uses, so src/cuda/*.cu compile with the
-// host compiler and every kernel runs on the CPU. A launch runs its blocks in parallel on oneTBB,
-// each block as one thread (blockDim = 1): the backend's loops are grid- or block-stride, so they
-// cover every item; __syncthreads has nothing to wait for; __shared__ arrays are the thread's own.
+// host compiler and every kernel runs on the CPU. A launch runs its blocks in parallel on oneTBB
+// and every thread of a block, with the blockDim the launch asked for, on one CPU thread: the
+// block's threads run one after another in an order that changes from launch to launch, and a
+// thread that reaches __syncthreads (or a warp reduction) is suspended on its own stack (a fiber)
+// until every live thread of its block (or warp) has arrived, then they go on in another order.
+// So a missing barrier, a race between a block's threads or a divergent barrier shows up as it
+// would on a GPU (a wrong result, or cudaErrorLaunchFailure for the barrier), and __shared__
+// memory is one copy per block (a thread_local of the CPU thread that runs the whole block).
 // Device memory is host memory (cudaMemcpy is memcpy), with an optional size limit to test the
-// out-of-memory paths (MENISCUS_EMULATED_DEVICE_MEMORY, bytes).
+// out-of-memory paths (MENISCUS_EMULATED_DEVICE_MEMORY, bytes); MENISCUS_EMULATED_SEED changes the
+// thread orders (default 0: a run is reproducible).
 #pragma once
 
 #include <atomic>
@@ -34,15 +40,28 @@ struct dim3 {
 inline thread_local uint3 blockIdx, threadIdx;
 inline thread_local dim3 blockDim, gridDim;
 
-inline void __syncthreads() {}
+/// Waits until every live thread of the block has reached it (see the file's comment).
+void __syncthreads();
 inline int __float_as_int(float f) {
   int i;
   std::memcpy(&i, &f, sizeof i);
   return i;
 }
-// A warp is one thread: its reductions are the thread's own value.
-inline int __reduce_min_sync(unsigned, int v) { return v; }
-inline int __reduce_max_sync(unsigned, int v) { return v; }
+namespace meniscus::cuda::emulation {
+enum class WarpOp { min, max, add };
+/// The value of `op` over the live threads of the caller's warp (32 consecutive threads of the
+/// block), every one of which must call it: a barrier over the warp on each side of the exchange.
+int warp_reduce(int value, WarpOp op);
+}  // namespace meniscus::cuda::emulation
+inline int __reduce_min_sync(unsigned, int v) {
+  return meniscus::cuda::emulation::warp_reduce(v, meniscus::cuda::emulation::WarpOp::min);
+}
+inline int __reduce_max_sync(unsigned, int v) {
+  return meniscus::cuda::emulation::warp_reduce(v, meniscus::cuda::emulation::WarpOp::max);
+}
+inline int __reduce_add_sync(unsigned, int v) {
+  return meniscus::cuda::emulation::warp_reduce(v, meniscus::cuda::emulation::WarpOp::add);
+}
 
 // --- atomics (std::atomic_ref: formal atomics, as the device's are) --------------------------------------
 template <class T> T atomicAdd(T* p, T v) { return std::atomic_ref<T>(*p).fetch_add(v); }
@@ -69,6 +88,7 @@ enum cudaError_t {
   cudaErrorInvalidConfiguration = 9,
   cudaErrorInsufficientDriver = 35,
   cudaErrorNoDevice = 100,
+  cudaErrorLaunchFailure = 719,
 };
 enum cudaMemcpyKind { cudaMemcpyHostToHost, cudaMemcpyHostToDevice, cudaMemcpyDeviceToHost, cudaMemcpyDeviceToDevice };
 struct cudaDeviceProp {
@@ -104,9 +124,11 @@ cudaError_t cudaMemcpyToSymbol(T& symbol, const void* src, std::size_t bytes, st
 
 namespace meniscus::cuda::emulation {
 
-/// Runs block(b) for every block b of the grid, in parallel, with blockIdx, threadIdx, blockDim
-/// and gridDim set on the thread that runs it; records cudaErrorInvalidConfiguration (returned by
-/// the next cudaGetLastError) for an empty grid or a block of more than 1024 threads.
+/// Runs body() as every thread of every block of the grid: blocks in parallel, a block's threads
+/// on one CPU thread as the file's comment says, with blockIdx, threadIdx, blockDim and gridDim
+/// set. Records (for the next cudaGetLastError) cudaErrorInvalidConfiguration for an empty grid or
+/// a block of more than 1024 threads, cudaErrorLaunchFailure for a barrier that not every live
+/// thread of a block reached.
 void run_grid(dim3 grid, dim3 block, const std::function<void()>& body);
 
 /// MENISCUS_LAUNCH(kernel, grid, block)(args…): the arguments are converted to the kernel's

@@ -385,8 +385,9 @@ TEST(Cli, SequenceOfDissimilarFramesMeasuresFlickerInBoundedTime) {
     EXPECT_NEAR(fl["cap"].get<double>(), kFlickerCapSpacings * 0.05, 1e-9);
     // The work: a few dozen point–triangle tests per vertex at most, whatever the two frames are.
     EXPECT_LT(fl["triangle_tests"].get<double>(), 32 * vertices) << f;
-    // The time: never more than surfacing the frame itself (plus a little for tiny frames).
-    EXPECT_LT(fl["seconds"].get<double>(), j["total_seconds"].get<double>() + 0.05) << f;
+    // The time: never more than surfacing the frame itself, plus a quarter second for tiny frames
+    // on a loaded machine (the bound that holds on any machine is the work's, above).
+    EXPECT_LT(fl["seconds"].get<double>(), j["total_seconds"].get<double>() + 0.25) << f;
     EXPECT_LE(fl["max"].get<double>(), fl["cap"].get<double>());
   }
   const auto far = nlohmann::json::parse(std::ifstream(tmp.file("s_0004.json")));

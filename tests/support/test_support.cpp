@@ -198,7 +198,7 @@ std::size_t count_before(std::string_view name, std::string_view suffix) {
 }
 
 bool large_for_sanitizers(std::string_view frame_name) {
-  return kSanitized && count_before(frame_name, "_particles") >= 8000;
+  return kSanitized && count_before(frame_name, "_particles") >= 5000;
 }
 
 std::string data_file(const std::string& name) { return std::string(MENISCUS_TEST_DATA) + "/" + name; }

@@ -2,7 +2,9 @@
 // MENISCUS_HD callable of the index, and run by for_each_index: here over oneTBB, on the device by
 // the overload of cuda/for_each.hpp (a kernel, also on the emulated device). Code shared by the
 // backends names the backend by a tag (Host here, cuda::Device there) and calls
-// for_each_index(backend, n, f); overload resolution picks the loop.
+// for_each_index(backend, n, f); overload resolution picks the loop. The CPU's other parallel
+// primitives (reductions, sort, per-thread scratch, chunked prefix counts) are in
+// common/primitives.hpp.
 #pragma once
 
 #include <tbb/blocked_range.h>

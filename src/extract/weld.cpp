@@ -2,6 +2,7 @@
 #include "extract/weld.hpp"
 #include "common/for_each.hpp"
 #include "common/huge_pages.hpp"
+#include "common/primitives.hpp"
 #include "mesh/compact.hpp"
 #include "system/memory_scope.hpp"
 
@@ -116,8 +117,8 @@ class SortedKeyIndex {
 std::vector<uint64_t> unique_sorted(const std::vector<uint64_t>& sorted) {
   auto is_head = [&](std::size_t i) { return i == 0 || sorted[i] != sorted[i - 1]; };
   std::vector<std::size_t> offsets;
-  std::vector<uint64_t> unique(detail::chunk_offsets(sorted.size(), is_head, offsets));
-  detail::for_each_set(sorted.size(), is_head, offsets, [&](std::size_t i, std::size_t k) { unique[k] = sorted[i]; });
+  std::vector<uint64_t> unique(chunk_offsets(sorted.size(), is_head, offsets));
+  for_each_set(sorted.size(), is_head, offsets, [&](std::size_t i, std::size_t k) { unique[k] = sorted[i]; });
   return unique;
 }
 

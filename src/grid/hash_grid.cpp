@@ -6,8 +6,8 @@
 #include <fmt/format.h>
 
 #include "common/for_each.hpp"
+#include "common/primitives.hpp"
 #include "common/radix_sort.hpp"
-#include "mesh/compact.hpp"
 #include "meniscus/errors.hpp"
 
 namespace meniscus {
@@ -54,10 +54,10 @@ HashGrid::HashGrid(std::span<const Vec3f> points, float cell_size) : cell_size_(
   // The cells' first points, found per chunk in parallel and listed in order.
   auto is_head = [&](std::size_t i) { return i == 0 || keyed[i].first != keyed[i - 1].first; };
   std::vector<std::size_t> offsets;
-  const std::size_t cells = detail::chunk_offsets(n, is_head, offsets);
+  const std::size_t cells = chunk_offsets(n, is_head, offsets);
   cell_keys_.resize(cells);
   cell_starts_.resize(cells + 1);
-  detail::for_each_set(n, is_head, offsets, [&](std::size_t i, std::size_t k) {
+  for_each_set(n, is_head, offsets, [&](std::size_t i, std::size_t k) {
     const uint64_t d = keyed[i].first;
     cell_keys_[k] = pack_coords(first.x + int32_t(d % nx), first.y + int32_t(d / nx % ny), first.z + int32_t(d / nx / ny));
     cell_starts_[k] = uint32_t(i);

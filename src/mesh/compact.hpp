@@ -14,50 +14,13 @@
 #include <vector>
 
 #include "common/for_each.hpp"
+#include "common/primitives.hpp"
 #include "common/huge_pages.hpp"
 #include "meniscus/mesh.hpp"
 
 namespace meniscus {
 
 namespace detail {
-
-inline constexpr std::size_t kCompactChunk = std::size_t(1) << 15;
-
-/// Per chunk of kCompactChunk indices of [0, n), the position of its first index with set(i)
-/// among all such indices (an exclusive scan of the chunks' counts, in chunk order); returns the
-/// total.
-template <class Set>
-std::size_t chunk_offsets(std::size_t n, Set&& set, std::vector<std::size_t>& offsets) {
-  const std::size_t chunks = (n + kCompactChunk - 1) / kCompactChunk;
-  offsets.assign(chunks + 1, 0);
-  for_each_index(chunks, [&](std::size_t c) {
-    std::size_t count = 0;
-    for (std::size_t i = c * kCompactChunk, end = std::min(n, i + kCompactChunk); i < end; ++i) count += set(i) ? 1 : 0;
-    offsets[c + 1] = count;
-  });
-  for (std::size_t c = 0; c < chunks; ++c) offsets[c + 1] += offsets[c];
-  return offsets[chunks];
-}
-
-/// Calls f(i, rank) for every index i of [0, n) with set(i), rank its position among them;
-/// parallel over the chunks of `offsets` (as chunk_offsets made them for the same n and set).
-template <class Set, class F>
-void for_each_set(std::size_t n, Set&& set, const std::vector<std::size_t>& offsets, F&& f) {
-  for_each_index(offsets.size() - 1, [&](std::size_t c) {
-    std::size_t rank = offsets[c];
-    for (std::size_t i = c * kCompactChunk, end = std::min(n, i + kCompactChunk); i < end; ++i)
-      if (set(i)) f(i, rank++);
-  });
-}
-
-/// The flags' versions: index i is set where flags[i] is.
-inline std::size_t chunk_offsets(const std::vector<uint8_t>& flags, std::vector<std::size_t>& offsets) {
-  return chunk_offsets(flags.size(), [&](std::size_t i) { return flags[i] != 0; }, offsets);
-}
-template <class F>
-void for_each_set(const std::vector<uint8_t>& flags, const std::vector<std::size_t>& offsets, F&& f) {
-  for_each_set(flags.size(), [&](std::size_t i) { return flags[i] != 0; }, offsets, std::forward<F>(f));
-}
 
 /// Moves the elements whose flag is set (groups of `per` values, flags.size() groups) to the front
 /// of `values`, in order, and shrinks it to them; `offsets` as chunk_offsets made them. In place:
@@ -72,15 +35,15 @@ void compact_in_place(std::vector<T>& values, std::size_t per, const std::vector
   const std::size_t chunks = offsets.size() - 1;
   const auto at = [&](std::size_t i) { return values.begin() + std::ptrdiff_t(i * per); };
   for_each_index(chunks, [&](std::size_t c) {
-    std::size_t out = c * kCompactChunk;
-    for (std::size_t i = c * kCompactChunk, end = std::min(flags.size(), i + kCompactChunk); i < end; ++i)
+    std::size_t out = c * kOffsetChunk;
+    for (std::size_t i = c * kOffsetChunk, end = std::min(flags.size(), i + kOffsetChunk); i < end; ++i)
       if (flags[i]) {
         if (out != i) std::copy(at(i), at(i + 1), at(out));
         ++out;
       }
   });
   for (std::size_t c = 0; c < chunks; ++c) {
-    const std::size_t from = c * kCompactChunk, to = offsets[c], count = offsets[c + 1] - offsets[c];
+    const std::size_t from = c * kOffsetChunk, to = offsets[c], count = offsets[c + 1] - offsets[c];
     if (from != to && count > 0)
       std::copy(at(from), at(from + count), at(to));  // to < from: a forward copy is safe
   }

@@ -11,8 +11,8 @@
 #include <stdexcept>
 
 #include "common/for_each.hpp"
+#include "common/primitives.hpp"
 #include "meniscus/quality.hpp"
-#include "mesh/compact.hpp"
 #include "quality/triangle_bvh.hpp"
 
 namespace meniscus {
@@ -48,10 +48,10 @@ bool triangles_near(const TriangleMesh& surface, const Box& box, std::vector<Tri
            hi.z >= box.lo.z;
   };
   std::vector<std::size_t> offsets;
-  const std::size_t count = detail::chunk_offsets(t.size(), near, offsets);
+  const std::size_t count = chunk_offsets(t.size(), near, offsets);
   if (count == t.size()) return false;
   kept.resize(count);
-  detail::for_each_set(t.size(), near, offsets, [&](std::size_t i, std::size_t rank) { kept[rank] = t[i]; });
+  for_each_set(t.size(), near, offsets, [&](std::size_t i, std::size_t rank) { kept[rank] = t[i]; });
   return true;
 }
 

@@ -14,8 +14,8 @@
 #include "common/clock.hpp"
 #include "common/huge_pages.hpp"
 #include "common/for_each.hpp"
+#include "common/primitives.hpp"
 #include "system/memory_scope.hpp"
-#include "mesh/compact.hpp"
 #include "mesh/components.hpp"
 #include "mesh/packed_triangles.hpp"
 #include "smooth/adjacency.hpp"
@@ -191,8 +191,8 @@ template <class Keep>
 std::vector<uint32_t> indices_where(std::size_t n, Keep&& keep) {
   std::vector<std::size_t> offsets;
   std::vector<uint32_t> out;
-  resize_huge(out, detail::chunk_offsets(n, keep, offsets));
-  detail::for_each_set(n, keep, offsets, [&](std::size_t i, std::size_t k) { out[k] = uint32_t(i); });
+  resize_huge(out, chunk_offsets(n, keep, offsets));
+  for_each_set(n, keep, offsets, [&](std::size_t i, std::size_t k) { out[k] = uint32_t(i); });
   return out;
 }
 

@@ -71,13 +71,13 @@ void expect_same(const TriangleMesh& a, const TriangleMesh& b) {
 TEST(Compact, KeepTrianglesMatchesASerialFilterOverManyChunks) {
   // 5 chunks of triangles and 3 of vertices; drop patterns: none at the start (the first chunks
   // stay where they are), runs across chunk edges, isolated ones, and a whole chunk.
-  const std::size_t nv = 3 * detail::kCompactChunk - 17, nt = 5 * detail::kCompactChunk + 5;
+  const std::size_t nv = 3 * kOffsetChunk - 17, nt = 5 * kOffsetChunk + 5;
   const TriangleMesh original = random_mesh(nv, nt, 3);
   std::vector<uint8_t> keep(nt, 1);
   std::mt19937 rng(8);
-  for (std::size_t t = detail::kCompactChunk + 100; t < nt; ++t) keep[t] = rng() % 9 != 0;
-  for (std::size_t t = 2 * detail::kCompactChunk - 50; t < 2 * detail::kCompactChunk + 70; ++t) keep[t] = 0;
-  for (std::size_t t = 3 * detail::kCompactChunk; t < 4 * detail::kCompactChunk; ++t) keep[t] = 0;
+  for (std::size_t t = kOffsetChunk + 100; t < nt; ++t) keep[t] = rng() % 9 != 0;
+  for (std::size_t t = 2 * kOffsetChunk - 50; t < 2 * kOffsetChunk + 70; ++t) keep[t] = 0;
+  for (std::size_t t = 3 * kOffsetChunk; t < 4 * kOffsetChunk; ++t) keep[t] = 0;
   const TriangleMesh expected = reference_keep(original, keep);
   ASSERT_LT(expected.vertices.size(), nv);  // vertices go too
 

@@ -3,7 +3,6 @@
 #include "meniscus/distributed.hpp"
 
 #include <fmt/format.h>
-#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <array>
@@ -14,6 +13,7 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "common/primitives.hpp"
 #include "extract/field_band.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/reconstruct.hpp"
@@ -750,7 +750,7 @@ void PieceWelder::weld_vertices() {
   all.reserve(total);
   for (uint32_t p = 0; p < positions_.size(); ++p)
     for (uint32_t i = 0; i < positions_[p].size(); ++i) all.push_back({key_of(positions_[p][i], inv_cell), p, i});
-  tbb::parallel_sort(all.begin(), all.end(), [](const Entry& a, const Entry& b) {
+  sort(Host{}, all.begin(), all.end(), [](const Entry& a, const Entry& b) {
     return std::tie(a.key, a.piece, a.index) < std::tie(b.key, b.piece, b.index);
   });
 
@@ -827,7 +827,7 @@ TriangleMesh PieceWelder::finish(bool normals) {
   if (!welded_ || std::find(triangles_added_.begin(), triangles_added_.end(), false) != triangles_added_.end())
     throw std::logic_error("PieceWelder::finish before every piece was added");
   std::vector<uint32_t>().swap(first_piece_);
-  tbb::parallel_sort(out_.triangles.begin(), out_.triangles.end());
+  sort(Host{}, out_.triangles.begin(), out_.triangles.end());
   // The normals again, on the welded mesh: a vertex's sum over its triangles then runs in one
   // order whatever the cut (a piece's triangle order can tie-break differently).
   if (normals) out_.normals = vertex_normals(out_.vertices, out_.triangles);

@@ -2,9 +2,9 @@
 #include "extract/block_marching.hpp"
 #include "common/for_each.hpp"
 #include "common/huge_pages.hpp"
+#include "common/primitives.hpp"
 
 #include <fmt/format.h>
-#include <tbb/enumerable_thread_specific.h>
 
 #include <algorithm>
 #include <cstring>
@@ -137,7 +137,7 @@ std::vector<Vec3i> blocks_to_march(const SparseField& field, std::span<const uin
         ghost_offsets.push_back({dx, dy, dz});
       }
 
-  tbb::enumerable_thread_specific<std::vector<uint64_t>> ghosts;
+  PerThread<std::vector<uint64_t>> ghosts;
   for_each_chunk(count, 1, [&](std::size_t begin, std::size_t end) {
     std::vector<uint64_t>& local = ghosts.local();
     for (std::size_t b = begin; b != end; ++b) {
@@ -236,7 +236,7 @@ MarchedCorners march_blocks(const SparseField& field, float iso, bool full_stenc
     std::vector<uint16_t> codes;  // the block's corner codes as its kernel wrote them
     BlockWeld weld;
   };
-  tbb::enumerable_thread_specific<Writer> writers([&] {
+  PerThread<Writer> writers([&] {
     Writer w;
     w.codes.resize(block_max);
     w.weld = BlockWeld(out.codes);

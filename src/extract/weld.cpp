@@ -7,8 +7,6 @@
 #include "system/memory_scope.hpp"
 
 #include <fmt/format.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <array>
@@ -55,10 +53,10 @@ struct DenseEdgeKeys {
   DenseEdgeKeys(std::size_t chunk_count, Chunk&& chunk) : DenseEdgeKeys(box_of(chunk_count, chunk)) {}
   template <class Chunk>
   static Box box_of(std::size_t chunk_count, Chunk&& chunk) {
-    return tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, chunk_count), Box{},
-        [&](const tbb::blocked_range<std::size_t>& r, Box b) {
-          for (std::size_t i = r.begin(); i != r.end(); ++i) b.add(chunk(i));
+    return reduce(
+        chunk_count, 1, Box{},
+        [&](std::size_t begin, std::size_t end, Box b) {
+          for (std::size_t i = begin; i != end; ++i) b.add(chunk(i));
           return b;
         },
         [](Box a, const Box& b) {
@@ -366,11 +364,11 @@ void weld_numbered(MarchedCorners& m, const SparseField& field, float iso, bool 
   std::vector<uint64_t>& edge_key_of_vertex = result.vertex_keys;
   if (with_keys) resize_populated(edge_key_of_vertex, mesh.vertices.size());
   const SampleLattice& lattice = field.lattice();
-  const std::size_t repeated = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, blocks), std::size_t(0),
-      [&](const tbb::blocked_range<std::size_t>& r, std::size_t acc) {
+  const std::size_t repeated = reduce(
+      blocks, 1, std::size_t(0),
+      [&](std::size_t begin, std::size_t end, std::size_t acc) {
         std::vector<uint32_t> vertex_of;  // per distinct edge of the block
-        for (std::size_t b = r.begin(); b != r.end(); ++b) {
+        for (std::size_t b = begin; b != end; ++b) {
           const Vec3i block{m.origins[b].x >> shift, m.origins[b].y >> shift, m.origins[b].z >> shift};
           std::array<uint32_t, 27> around;  // marched-block index per slot, looked up when first used
           around.fill(kNotFound - 1);
@@ -476,10 +474,10 @@ namespace {
 /// Drops the triangles with a repeated vertex (never made by the marching stages; see drop_repeated).
 void drop_repeated_triangles(ExtractResult& result) {
   TriangleMesh& mesh = result.mesh;
-  const std::size_t repeated = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, mesh.triangles.size()), std::size_t(0),
-      [&](const tbb::blocked_range<std::size_t>& r, std::size_t acc) {
-        for (std::size_t t = r.begin(); t != r.end(); ++t) {
+  const std::size_t repeated = reduce(
+      mesh.triangles.size(), 1, std::size_t(0),
+      [&](std::size_t begin, std::size_t end, std::size_t acc) {
+        for (std::size_t t = begin; t != end; ++t) {
           const Triangle& tri = mesh.triangles[t];
           acc += tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2];
         }

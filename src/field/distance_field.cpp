@@ -1,10 +1,9 @@
 // meniscus — sparse distance field (Williams 2008; Edespong 2010 §3.2).
 #include "field/distance_field.hpp"
 #include "common/for_each.hpp"
+#include "common/primitives.hpp"
 #include "field/distance_field_impl.hpp"
 
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <atomic>
@@ -85,7 +84,7 @@ std::vector<uint64_t> band_blocks(const HashGrid& grid, const SampleLattice& lat
   const float block_size = lattice.cell_size * float(lattice.block_cells());
   const float c = grid.cell_size();
   if (std::vector<uint64_t> dense; band_blocks_dense(grid, band, block_size, dense)) return dense;
-  tbb::enumerable_thread_specific<std::vector<uint64_t>> local;
+  PerThread<std::vector<uint64_t>> local;
   for_each_chunk(cells.size(), 256, [&](std::size_t begin, std::size_t end) {
     auto& out = local.local();
     for (std::size_t i = begin; i != end; ++i) {
@@ -99,7 +98,7 @@ std::vector<uint64_t> band_blocks(const HashGrid& grid, const SampleLattice& lat
   });
   std::vector<uint64_t> keys;
   for (auto& v : local) keys.insert(keys.end(), v.begin(), v.end());
-  tbb::parallel_sort(keys.begin(), keys.end());
+  sort(Host{}, keys.begin(), keys.end());
   keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
   return keys;
 }

@@ -2,13 +2,12 @@
 // them the other way), for the clip's cap and the decimation's border and manifold checks.
 #pragma once
 
-#include <tbb/parallel_sort.h>
-
 #include <algorithm>
 #include <cstdint>
 #include <vector>
 
 #include "common/for_each.hpp"
+#include "common/primitives.hpp"
 #include "meniscus/mesh.hpp"
 
 namespace meniscus {
@@ -27,7 +26,7 @@ inline std::vector<EdgeKey> sorted_directed_edges(const std::vector<Triangle>& t
     for (std::size_t t = begin; t != end; ++t)
       for (std::size_t k = 0; k < 3; ++k) edges[3 * t + k] = directed_edge(triangles[t][k], triangles[t][(k + 1) % 3]);
   });
-  tbb::parallel_sort(edges.begin(), edges.end());
+  sort(Host{}, edges.begin(), edges.end());
   return edges;
 }
 

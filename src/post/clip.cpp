@@ -1,16 +1,13 @@
 // meniscus — cutting the surface by a box (post/clip.hpp).
 #include "post/clip.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
 #include <vector>
 
+#include "common/primitives.hpp"
 #include "mesh/compact.hpp"
 
 namespace meniscus {
@@ -49,10 +46,10 @@ uint32_t add_crossing(TriangleMesh& mesh, uint32_t a, uint32_t b, double t, cons
 void cut(TriangleMesh& mesh, const Plane& plane, ClipOutcome& outcome) {
   const std::size_t nv = mesh.vertices.size();
   std::vector<double> f(nv);
-  const bool any_outside = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, nv, 1 << 14), false,
-      [&](const auto& r, bool found) {
-        for (std::size_t v = r.begin(); v != r.end(); ++v) {
+  const bool any_outside = reduce(
+      nv, 1 << 14, false,
+      [&](std::size_t begin, std::size_t end, bool found) {
+        for (std::size_t v = begin; v != end; ++v) {
           f[v] = plane.side * (double(mesh.vertices[v][plane.axis]) - double(plane.value));
           found = found || f[v] < 0;
         }

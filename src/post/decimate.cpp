@@ -1,8 +1,6 @@
 // meniscus — simplification under a bound that keeps the triangles good (post/decimate.hpp).
 #include "post/decimate.hpp"
 
-#include <tbb/parallel_sort.h>
-
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -14,6 +12,7 @@
 #include <vector>
 
 #include "common/for_each.hpp"
+#include "common/primitives.hpp"
 #include "field/eigen_sym3_impl.hpp"
 #include "mesh/closest_point_impl.hpp"
 #include "mesh/compact.hpp"
@@ -721,7 +720,7 @@ Owned simplify_pass(Shared& s, Owned current, double side, double offset, Decima
     for (std::size_t a = 0; a < 3; ++a) key = key << 21 | uint64_t((i[a] - lo[a]) / run[a]);
     cells[t] = {key, uint32_t(t)};
   });
-  tbb::parallel_sort(cells.begin(), cells.end());
+  sort(Host{}, cells.begin(), cells.end());
   std::vector<std::size_t> starts;
   for (std::size_t i = 0; i < cells.size(); ++i)
     if (i == 0 || cells[i].first != cells[i - 1].first) starts.push_back(i);

@@ -1,14 +1,13 @@
 // meniscus — mesh quality metrics (docs/cli.md "meniscus inspect").
 #include "meniscus/quality.hpp"
 
-#include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
-
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <numeric>
 #include <numbers>
 
+#include "common/primitives.hpp"
 #include "grid/hash_grid.hpp"
 #include "quality/triangle_bvh.hpp"
 #include "mesh/volume_impl.hpp"
@@ -94,12 +93,12 @@ TopologyReport analyze_topology(const TriangleMesh& mesh) {
     for (uint32_t f = 0; f < nt; ++f)
       for (uint32_t v : mesh.triangles[f]) incident[fill[v]++] = f;
   }
-  r.nonmanifold_vertices = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, nv, 1024), std::size_t(0),
-      [&](const tbb::blocked_range<std::size_t>& range, std::size_t acc) {
+  r.nonmanifold_vertices = reduce(
+      nv, 1024, std::size_t(0),
+      [&](std::size_t begin, std::size_t end, std::size_t acc) {
         std::vector<std::pair<uint32_t, uint32_t>> fan;  // (other vertex a, other vertex b) per triangle
         std::vector<uint32_t> local_parent;
-        for (std::size_t v = range.begin(); v != range.end(); ++v) {
+        for (std::size_t v = begin; v != end; ++v) {
           const uint32_t b = start[v], e = start[v + 1];
           if (e - b <= 1) continue;
           // Union triangles of the fan that share an edge (v, w).
@@ -202,10 +201,10 @@ ConstraintReport constraint_residual(std::span<const Vec3f> vertices, std::span<
   struct Acc {
     double violation = 0, lo = INFINITY, hi = 0;
   };
-  const Acc acc = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, vertices.size(), 1024), Acc{},
-      [&](const tbb::blocked_range<std::size_t>& range, Acc a) {
-        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+  const Acc acc = reduce(
+      vertices.size(), 1024, Acc{},
+      [&](std::size_t begin, std::size_t end, Acc a) {
+        for (std::size_t i = begin; i != end; ++i) {
           const double d = std::sqrt(double(grid.nearest(vertices[i]).dist2));
           a.lo = std::min(a.lo, d);
           a.hi = std::max(a.hi, d);
@@ -285,10 +284,10 @@ PlaneFit fit_plane(std::span<const Vec3f> points) {
 
 double mean_edge_length(const TriangleMesh& mesh) {
   const auto& v = mesh.vertices;
-  const double sum = tbb::parallel_deterministic_reduce(  // the same sum on any number of threads
-      tbb::blocked_range<std::size_t>(0, mesh.triangles.size(), 4096), 0.0,
-      [&](const auto& r, double s) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+  const double sum = deterministic_reduce(  // the same sum on any number of threads
+      mesh.triangles.size(), 4096, 0.0,
+      [&](std::size_t begin, std::size_t end, double s) {
+        for (std::size_t i = begin; i != end; ++i) {
           const Triangle& t = mesh.triangles[i];
           s += double(length(v.at(t[0]) - v.at(t[1]))) + length(v.at(t[1]) - v.at(t[2])) + length(v.at(t[2]) - v.at(t[0]));
         }
@@ -338,10 +337,10 @@ double least_triangles_within(const TriangleMesh& mesh, double bound) {
 std::size_t points_outside(const TriangleMesh& mesh, std::span<const Vec3f> points) {
   if (mesh.triangles.empty()) return points.size();
   const TriangleBvh bvh(mesh.vertices, mesh.triangles);
-  return tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, points.size(), 256), std::size_t(0),
-      [&](const auto& r, std::size_t outside) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) outside += !bvh.inside(points[i]);
+  return reduce(
+      points.size(), 256, std::size_t(0),
+      [&](std::size_t begin, std::size_t end, std::size_t outside) {
+        for (std::size_t i = begin; i != end; ++i) outside += !bvh.inside(points[i]);
         return outside;
       },
       std::plus<>());

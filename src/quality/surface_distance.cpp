@@ -1,8 +1,6 @@
 // meniscus — point-to-surface distance (frame-to-frame flicker, docs/cli.md "Sequences"): closest points on
 // triangles (Ericson 2005 §5.1.5) found through Embree's BVH (quality/triangle_bvh.hpp).
 #include <fmt/format.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <atomic>
@@ -23,10 +21,10 @@ struct Box {
 };
 
 Box bounds(std::span<const Vec3f> points) {
-  return tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, points.size(), 1 << 14), Box{},
-      [&](const auto& r, Box b) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) b.lo = min(b.lo, points[i]), b.hi = max(b.hi, points[i]);
+  return reduce(
+      points.size(), 1 << 14, Box{},
+      [&](std::size_t begin, std::size_t end, Box b) {
+        for (std::size_t i = begin; i != end; ++i) b.lo = min(b.lo, points[i]), b.hi = max(b.hi, points[i]);
         return b;
       },
       [](Box a, const Box& b) { return Box{min(a.lo, b.lo), max(a.hi, b.hi)}; });

@@ -4,14 +4,13 @@
 
 #include <embree3/rtcore.h>
 #include <fmt/format.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <mutex>
 
+#include "common/primitives.hpp"
 #include "meniscus/errors.hpp"
 #include "mesh/closest_point_impl.hpp"
 #include "mesh/ray_parity_impl.hpp"
@@ -129,10 +128,10 @@ TriangleBvh::TriangleBvh(std::span<const Vec3f> vertices, std::span<const Triang
   struct Box {
     Vec3f lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
   };
-  const Box box = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, triangles.size(), 4096), Box{},
-      [&](const auto& r, Box b) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i)
+  const Box box = reduce(
+      triangles.size(), 4096, Box{},
+      [&](std::size_t begin, std::size_t end, Box b) {
+        for (std::size_t i = begin; i != end; ++i)
           for (uint32_t k : triangles[i]) {
             if (k >= vertices.size())
               throw std::invalid_argument(

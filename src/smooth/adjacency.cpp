@@ -1,8 +1,6 @@
 // meniscus — mesh adjacency (CSR rows of neighbours and of incident triangles).
 #include "smooth/adjacency.hpp"
 
-#include <tbb/parallel_scan.h>
-
 #include <algorithm>
 #include <atomic>
 #include <bit>

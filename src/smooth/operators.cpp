@@ -1,8 +1,6 @@
 // meniscus — A and B operators (Williams 2008 §4; Desbrun et al. 1999 for the cotangent form).
 #include "smooth/operators.hpp"
 
-#include <tbb/parallel_reduce.h>
-
 #include <algorithm>
 #include <cmath>
 

@@ -1,8 +1,6 @@
 // meniscus — constrained smoothing schedule (Williams 2008 §4; Edespong 2010 §3.5).
 #include "smooth/smooth.hpp"
 
-#include <tbb/parallel_invoke.h>
-
 #include <algorithm>
 #include <chrono>
 #include <atomic>

@@ -185,7 +185,8 @@ TEST(CudaParity, TransferredAttributesMatch) {
 // agrees to rounding (ties between two nearest particles may go either way: docs/gpu.md).
 TEST(CudaParity, FieldMethodsGiveTheSameMesh) {
   MENISCUS_REQUIRE_CUDA_DEVICE();
-  const ParticleSet ps = read_particles(test::data_file("ply/dam_break_frame_9_6859_particles.ply"));
+  const ParticleSet ps = read_particles(test::data_file(test::kSanitized ? "ply/double_dam_break_frame_26_4732_particles.ply"
+                                                                         : "ply/dam_break_frame_9_6859_particles.ply"));
   const double d = estimate_spacing(ps);
   for (FieldMethod m : {FieldMethod::metaball, FieldMethod::sph, FieldMethod::zhu_bridson, FieldMethod::anisotropic}) {
     SCOPED_TRACE(to_string(m));

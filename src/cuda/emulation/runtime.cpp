@@ -224,7 +224,8 @@ struct Block {
   bool failed = false;     // a barrier reached by a thread straight on the CPU thread's stack
   unsigned current = 0;    // the thread running now
   std::vector<Fiber> fiber;
-  std::vector<unsigned> pass;  // the threads of this pass, in its order
+  std::vector<unsigned> order;  // the launch's order of the threads (kept: a block is no allocation)
+  std::vector<unsigned> pass;   // the threads of this pass, in its order
   std::size_t cursor = 0;
   std::vector<int> slots;      // one value per thread, for the warp reductions
   ucontext_t scheduler{};      // the CPU thread's own stack, waiting in run_block
@@ -354,7 +355,8 @@ bool run_block(const std::function<void()>& body, dim3 dim, std::uint64_t seed) 
   block.fibers = true;
   if (block.fiber.size() < block.threads) block.fiber.resize(block.threads);
   block.slots.resize(block.threads);
-  std::vector<unsigned> order(block.threads);
+  std::vector<unsigned>& order = block.order;
+  order.resize(block.threads);
   for (unsigned t = 0; t < block.threads; ++t) {
     order[t] = t;
     block.fiber[t].state = Fiber::unstarted;

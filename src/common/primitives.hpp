@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "common/for_each.hpp"
+#include "common/radix_sort.hpp"
 
 namespace meniscus {
 
@@ -120,6 +121,64 @@ inline std::size_t chunk_offsets(const std::vector<uint8_t>& flags, std::vector<
 template <class F>
 void for_each_set(const std::vector<uint8_t>& flags, const std::vector<std::size_t>& offsets, F&& f) {
   for_each_set(flags.size(), [&](std::size_t i) { return flags[i] != 0; }, offsets, std::forward<F>(f));
+}
+
+// --- the backend primitives' CPU versions ---------------------------------------------------------
+// The same calls as the device's (cuda/primitives.hpp), over plain pointers, so that a stage
+// written once over the backend tag calls exclusive_sum(backend, …) and gets either.
+
+/// out[i] = Σ_{k<i} in[k] for i ≤ n (out has n + 1 elements, out[n] the total); in and out may be
+/// the same array. Chunk totals in parallel, their scan serially, then each chunk in parallel.
+template <class T>
+void exclusive_sum(Host, const T* in, T* out, std::size_t n) {
+  const std::size_t chunks = (n + kOffsetChunk - 1) / kOffsetChunk;
+  std::vector<T> base(chunks + 1, T(0));
+  for_each_index(chunks, [&](std::size_t c) {
+    T total = 0;
+    for (std::size_t i = c * kOffsetChunk, end = std::min(n, i + kOffsetChunk); i < end; ++i) total += in[i];
+    base[c + 1] = total;
+  });
+  for (std::size_t c = 0; c < chunks; ++c) base[c + 1] += base[c];
+  for_each_index(chunks, [&](std::size_t c) {
+    T total = base[c];
+    for (std::size_t i = c * kOffsetChunk, end = std::min(n, i + kOffsetChunk); i < end; ++i) {
+      const T v = in[i];
+      out[i] = total;
+      total += v;
+    }
+  });
+  out[n] = base[chunks];
+}
+
+/// Sorts the n pairs (keys[i], values[i]) stably by the key bits [begin_bit, end_bit), in place.
+template <class K>
+void sort_pairs(Host, K* keys, uint32_t* values, std::size_t n, int begin_bit = 0, int end_bit = 8 * sizeof(K)) {
+  if (n < 2) return;
+  std::vector<std::pair<K, uint32_t>> items(n);
+  for_each_index(n, kElementGrain, [&](std::size_t i) { items[i] = {keys[i], values[i]}; });
+  radix_sort_by(items, [](const std::pair<K, uint32_t>& p) { return uint64_t(p.first); }, begin_bit, end_bit);
+  for_each_index(n, kElementGrain, [&](std::size_t i) { keys[i] = items[i].first, values[i] = items[i].second; });
+}
+
+/// Sorts the n keys in place.
+inline void sort_keys(Host, uint64_t* keys, std::size_t n) { tbb::parallel_sort(keys, keys + n); }
+
+/// Moves the distinct values of the sorted keys[0, n) to the front; returns their count.
+inline std::size_t unique_sorted(Host, uint64_t* keys, std::size_t n) {
+  return std::size_t(std::unique(keys, keys + n) - keys);
+}
+
+/// combine(… combine(combine(identity, f(0)), f(1)) …, f(n − 1)) for an associative, exact combine
+/// (min, max, counts: the cut of [0, n) into ranges depends on the threads).
+template <class T, class F, class Combine>
+T reduce_index(Host, std::size_t n, T identity, F f, Combine combine) {
+  return reduce(
+      n, kElementGrain, identity,
+      [&](std::size_t begin, std::size_t end, T acc) {
+        for (std::size_t i = begin; i < end; ++i) acc = combine(acc, f(i));
+        return acc;
+      },
+      combine);
 }
 
 }  // namespace meniscus

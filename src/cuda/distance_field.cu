@@ -104,14 +104,14 @@ DeviceBuffer<uint64_t> band_blocks(const DeviceGrid& grid, const SampleLattice& 
   MENISCUS_LAUNCH(band_block_count_kernel, blocks_for(grid.cells), 256)(grid.keys.data(), grid.cells, grid.cell_size, band,
                                                            block_size, counts.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
-  exclusive_sum(counts.data(), offsets.data(), grid.cells);
+  exclusive_sum(Device{}, counts.data(), offsets.data(), grid.cells);
   const uint64_t total = offsets.get(grid.cells);
   DeviceBuffer<uint64_t> keys(total);
   MENISCUS_LAUNCH(band_block_write_kernel, blocks_for(grid.cells), 256)(grid.keys.data(), grid.cells, grid.cell_size, band,
                                                            block_size, offsets.data(), keys.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
-  sort_keys(keys, total);
-  *block_count = unique_sorted(keys, total);
+  sort_keys(Device{}, keys.data(), total);
+  *block_count = unique_sorted(Device{}, keys.data(), total);
   return keys;
 }
 

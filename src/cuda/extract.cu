@@ -201,7 +201,7 @@ DeviceMesh extract_surface(const DeviceField& field, float iso, Extractor extrac
   MENISCUS_LAUNCH(ghost_kernel, blocks_for(blocks), 256)(field.keys.data(), blocks, masks.data(), cells, full, nullptr, nullptr,
                                             ghost_counts.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
-  exclusive_sum(ghost_counts.data(), ghost_offsets32.data(), blocks);
+  exclusive_sum(Device{}, ghost_counts.data(), ghost_offsets32.data(), blocks);
   const uint32_t ghosts = ghost_offsets32.get(blocks);
   DeviceBuffer<uint64_t> ghost_offsets(blocks);
   {
@@ -215,8 +215,8 @@ DeviceMesh extract_surface(const DeviceField& field, float iso, Extractor extrac
   MENISCUS_LAUNCH(ghost_kernel, blocks_for(blocks), 256)(field.keys.data(), blocks, masks.data(), cells, full, ghost_offsets.data(),
                                             march_keys.data() + blocks, nullptr);
   MENISCUS_CUDA_CHECK_LAUNCH();
-  sort_keys(march_keys, std::size_t(blocks) + ghosts);
-  const std::size_t march_blocks = unique_sorted(march_keys, std::size_t(blocks) + ghosts);
+  sort_keys(Device{}, march_keys.data(), std::size_t(blocks) + ghosts);
+  const std::size_t march_blocks = unique_sorted(Device{}, march_keys.data(), std::size_t(blocks) + ghosts);
 
   // Count, scan, write.
   const std::size_t slots = march_blocks * std::size_t(cells);
@@ -232,7 +232,7 @@ DeviceMesh extract_surface(const DeviceField& field, float iso, Extractor extrac
     MENISCUS_CUDA_CHECK_LAUNCH();
   };
   march(counts.data(), nullptr, nullptr);
-  exclusive_sum(counts.data(), offsets.data(), slots);
+  exclusive_sum(Device{}, counts.data(), offsets.data(), slots);
   const uint64_t triangles = offsets.get(slots);
   const uint64_t corners_n = 3 * triangles;
   if (corners_n >= uint64_t(kNotFound))
@@ -247,11 +247,11 @@ DeviceMesh extract_surface(const DeviceField& field, float iso, Extractor extrac
   DeviceBuffer<uint32_t> corner_index(corners_n);
   MENISCUS_LAUNCH(index_kernel, blocks_for(corners_n), 256)(corner_index.data(), corners_n);
   MENISCUS_CUDA_CHECK_LAUNCH();
-  sort_pairs(corners, corner_index, corners_n, 0, 63);
+  sort_pairs(Device{}, corners.data(), corner_index.data(), corners_n, 0, 63);
   DeviceBuffer<uint32_t> heads(corners_n), vertex_of(corners_n + 1);
   MENISCUS_LAUNCH(weld_heads_kernel, blocks_for(corners_n), 256)(corners.data(), corners_n, heads.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
-  exclusive_sum(heads.data(), vertex_of.data(), corners_n);
+  exclusive_sum(Device{}, heads.data(), vertex_of.data(), corners_n);
   const uint32_t nv = corners_n == 0 ? 0 : vertex_of.get(corners_n);
   DeviceBuffer<uint64_t> vertex_keys(nv);
   mesh.triangles.resize(corners_n);

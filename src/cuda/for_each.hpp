@@ -7,12 +7,23 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "common/buffer.hpp"
 #include "cuda/cuda_check.hpp"
 
 namespace meniscus::cuda {
 
-/// The device, as a tag for code shared with the CPU backend.
+/// The device, as a tag for code shared with the CPU backend; its arrays are DeviceBuffers.
 struct Device {};
+
+}  // namespace meniscus::cuda
+
+template <>
+struct meniscus::BackendBuffer<meniscus::cuda::Device> {
+  template <class T>
+  using type = meniscus::cuda::DeviceBuffer<T>;
+};
+
+namespace meniscus::cuda {
 
 template <class F>
 __global__ void for_each_kernel(uint64_t n, F f) {

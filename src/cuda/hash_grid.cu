@@ -46,13 +46,13 @@ DeviceGrid build_grid(const DeviceBuffer<Vec3f>& points, uint32_t count, float c
   g.order.resize(count);
   MENISCUS_LAUNCH(cell_keys_kernel, blocks_for(count), 256)(points.data(), count, cell_size, keys.data(), g.order.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
-  sort_pairs(keys, g.order, count, 0, 63);
+  sort_pairs(Device{}, keys.data(), g.order.data(), count, 0, 63);
   g.sorted.resize(count);
   DeviceBuffer<uint32_t> heads(count), cell_of_head(count + 1);
   MENISCUS_LAUNCH(gather_points_kernel, blocks_for(count), 256)(points.data(), g.order.data(), keys.data(), count, g.sorted.data(),
                                                    heads.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
-  exclusive_sum(heads.data(), cell_of_head.data(), count);
+  exclusive_sum(Device{}, heads.data(), cell_of_head.data(), count);
   g.cells = cell_of_head.get(count);
   g.keys.resize(g.cells);
   g.starts.resize(std::size_t(g.cells) + 1);

@@ -11,19 +11,18 @@ namespace meniscus::cuda {
 namespace {
 
 template <class K>
-void sort_pairs_impl(DeviceBuffer<K>& keys, DeviceBuffer<uint32_t>& values, std::size_t n, int begin_bit,
-                     int end_bit) {
+void sort_pairs_impl(K* keys, uint32_t* values, std::size_t n, int begin_bit, int end_bit) {
   if (n < 2) return;
   DeviceBuffer<K> keys_out(n);
   DeviceBuffer<uint32_t> values_out(n);
   std::size_t temp_bytes = 0;
-  MENISCUS_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(nullptr, temp_bytes, keys.data(), keys_out.data(), values.data(),
+  MENISCUS_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(nullptr, temp_bytes, keys, keys_out.data(), values,
                                                       values_out.data(), n, begin_bit, end_bit));
   DeviceBuffer<unsigned char> temp(temp_bytes);
-  MENISCUS_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(temp.data(), temp_bytes, keys.data(), keys_out.data(),
-                                                      values.data(), values_out.data(), n, begin_bit, end_bit));
-  MENISCUS_CUDA_CHECK(counted_memcpy(keys.data(), keys_out.data(), n * sizeof(K), cudaMemcpyDeviceToDevice));
-  MENISCUS_CUDA_CHECK(counted_memcpy(values.data(), values_out.data(), n * sizeof(uint32_t), cudaMemcpyDeviceToDevice));
+  MENISCUS_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(temp.data(), temp_bytes, keys, keys_out.data(),
+                                                      values, values_out.data(), n, begin_bit, end_bit));
+  MENISCUS_CUDA_CHECK(counted_memcpy(keys, keys_out.data(), n * sizeof(K), cudaMemcpyDeviceToDevice));
+  MENISCUS_CUDA_CHECK(counted_memcpy(values, values_out.data(), n * sizeof(uint32_t), cudaMemcpyDeviceToDevice));
 }
 
 template <class T>
@@ -46,38 +45,36 @@ void exclusive_sum_impl(const T* in, T* out, std::size_t n) {
 
 }  // namespace
 
-void sort_pairs(DeviceBuffer<uint64_t>& keys, DeviceBuffer<uint32_t>& values, std::size_t n, int begin_bit,
-                int end_bit) {
+void sort_pairs(Device, uint64_t* keys, uint32_t* values, std::size_t n, int begin_bit, int end_bit) {
   sort_pairs_impl(keys, values, n, begin_bit, end_bit);
 }
-void sort_pairs(DeviceBuffer<uint32_t>& keys, DeviceBuffer<uint32_t>& values, std::size_t n, int begin_bit,
-                int end_bit) {
+void sort_pairs(Device, uint32_t* keys, uint32_t* values, std::size_t n, int begin_bit, int end_bit) {
   sort_pairs_impl(keys, values, n, begin_bit, end_bit);
 }
 
-void sort_keys(DeviceBuffer<uint64_t>& keys, std::size_t n) {
+void sort_keys(Device, uint64_t* keys, std::size_t n) {
   if (n < 2) return;
   DeviceBuffer<uint64_t> out(n);
   std::size_t temp_bytes = 0;
-  MENISCUS_CUDA_CHECK(cub::DeviceRadixSort::SortKeys(nullptr, temp_bytes, keys.data(), out.data(), n));
+  MENISCUS_CUDA_CHECK(cub::DeviceRadixSort::SortKeys(nullptr, temp_bytes, keys, out.data(), n));
   DeviceBuffer<unsigned char> temp(temp_bytes);
-  MENISCUS_CUDA_CHECK(cub::DeviceRadixSort::SortKeys(temp.data(), temp_bytes, keys.data(), out.data(), n));
-  MENISCUS_CUDA_CHECK(counted_memcpy(keys.data(), out.data(), n * sizeof(uint64_t), cudaMemcpyDeviceToDevice));
+  MENISCUS_CUDA_CHECK(cub::DeviceRadixSort::SortKeys(temp.data(), temp_bytes, keys, out.data(), n));
+  MENISCUS_CUDA_CHECK(counted_memcpy(keys, out.data(), n * sizeof(uint64_t), cudaMemcpyDeviceToDevice));
 }
 
-void exclusive_sum(const uint64_t* in, uint64_t* out, std::size_t n) { exclusive_sum_impl(in, out, n); }
-void exclusive_sum(const uint32_t* in, uint32_t* out, std::size_t n) { exclusive_sum_impl(in, out, n); }
+void exclusive_sum(Device, const uint64_t* in, uint64_t* out, std::size_t n) { exclusive_sum_impl(in, out, n); }
+void exclusive_sum(Device, const uint32_t* in, uint32_t* out, std::size_t n) { exclusive_sum_impl(in, out, n); }
 
-std::size_t unique_sorted(DeviceBuffer<uint64_t>& keys, std::size_t n) {
+std::size_t unique_sorted(Device, uint64_t* keys, std::size_t n) {
   if (n < 2) return n;
   DeviceBuffer<uint64_t> out(n);
   DeviceBuffer<std::size_t> count(1);
   std::size_t temp_bytes = 0;
-  MENISCUS_CUDA_CHECK(cub::DeviceSelect::Unique(nullptr, temp_bytes, keys.data(), out.data(), count.data(), n));
+  MENISCUS_CUDA_CHECK(cub::DeviceSelect::Unique(nullptr, temp_bytes, keys, out.data(), count.data(), n));
   DeviceBuffer<unsigned char> temp(temp_bytes);
-  MENISCUS_CUDA_CHECK(cub::DeviceSelect::Unique(temp.data(), temp_bytes, keys.data(), out.data(), count.data(), n));
+  MENISCUS_CUDA_CHECK(cub::DeviceSelect::Unique(temp.data(), temp_bytes, keys, out.data(), count.data(), n));
   const std::size_t m = count.get(0);
-  MENISCUS_CUDA_CHECK(counted_memcpy(keys.data(), out.data(), m * sizeof(uint64_t), cudaMemcpyDeviceToDevice));
+  MENISCUS_CUDA_CHECK(counted_memcpy(keys, out.data(), m * sizeof(uint64_t), cudaMemcpyDeviceToDevice));
   return m;
 }
 

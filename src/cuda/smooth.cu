@@ -220,14 +220,14 @@ DeviceAdjacency build_adjacency(const DeviceMesh& mesh) {
   MENISCUS_LAUNCH(corner_keys_kernel, blocks_for(corners), 256)(mesh.triangles.data(), corners, keys.data(), adj.tri_ids.data(),
                                                    counts.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
-  exclusive_sum(counts.data(), adj.tri_offsets.data(), nv);
-  sort_pairs(keys, adj.tri_ids, corners, 0, 32);  // stable: each vertex's triangles ascending
+  exclusive_sum(Device{}, counts.data(), adj.tri_offsets.data(), nv);
+  sort_pairs(Device{}, keys.data(), adj.tri_ids.data(), corners, 0, 32);  // stable: each vertex's triangles ascending
   DeviceBuffer<uint32_t> scratch(2 * corners);
   MENISCUS_LAUNCH(neighbour_count_kernel, blocks_for(nv), 256)(mesh.triangles.data(), adj.tri_offsets.data(), adj.tri_ids.data(), nv,
                                                   scratch.data(), counts.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
   adj.offsets.resize(nv + 1);
-  exclusive_sum(counts.data(), adj.offsets.data(), nv);
+  exclusive_sum(Device{}, counts.data(), adj.offsets.data(), nv);
   adj.neighbors.resize(nv == 0 ? 0 : adj.offsets.get(nv));
   MENISCUS_LAUNCH(neighbour_write_kernel, blocks_for(nv), 256)(adj.tri_offsets.data(), scratch.data(), adj.offsets.data(), nv,
                                                   adj.neighbors.data());

@@ -1,121 +1,37 @@
 // meniscus — the stages of the CUDA backend over device data, mirroring the CPU stage folders:
 // hash_grid.cu (grid/), distance_field.cu (field/), extract.cu (extract/ + mesh/voids),
-// smooth.cu (smooth/), transfer.cu (transfer/). Views are plain structs of device pointers with
-// MENISCUS_HD accessors, so the shared *_impl.hpp templates (grid queries, projection) run on them.
+// smooth.cu (smooth/), transfer.cu (transfer/). The data are the stage folders' backend templates
+// (GridBuffers, FieldBuffers, MeshBuffers, AdjacencyBuffers) on the Device; their views are plain
+// structs of pointers with MENISCUS_HD accessors, so the shared *_impl.hpp templates run on them.
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
 #include "cuda/cuda_check.hpp"
+#include "cuda/for_each.hpp"
+#include "field/field_buffers.hpp"
 #include "field/kernel_impl.hpp"
 #include "field/sparse_field.hpp"
+#include "grid/grid_buffers.hpp"
 #include "grid/hash_grid_impl.hpp"
 #include "grid/key_index.hpp"
 #include "meniscus/params.hpp"
 #include "meniscus/vec.hpp"
+#include "mesh/mesh_buffers.hpp"
 #include "smooth/schedule.hpp"
 
 namespace meniscus::cuda {
 
-/// Index of `key` in sorted keys[0, n), or kNotFound (binary search; the device's KeyIndex).
-MENISCUS_HD inline uint32_t find_sorted(const uint64_t* keys, uint32_t n, uint64_t key) {
-  uint32_t lo = 0, hi = n;
-  while (lo < hi) {
-    const uint32_t mid = lo + (hi - lo) / 2;
-    if (keys[mid] < key) lo = mid + 1; else hi = mid;
-  }
-  return lo < n && keys[lo] == key ? lo : kNotFound;
-}
-
-/// The lattice's sample offsets (in cells), passed to the kernels by value: no per-process device
-/// state, so concurrent reconstructions on different lattices stay apart.
-struct SampleOffsets {
-  float o[8][3] = {};
-  SampleOffsets() = default;
-  explicit SampleOffsets(const SampleLattice& lattice) {
-    for (int s = 0; s < lattice.samples_per_cell(); ++s)
-      for (int a = 0; a < 3; ++a) o[s][a] = lattice.sample_offset(s)[a];
-  }
-};
-
-struct CellRange {
-  uint32_t first = 0, second = 0;
-};
-
-/// The hash grid on the device (the Grid of hash_grid_impl.hpp).
-struct GridView {
-  const Vec3f* sorted = nullptr;
-  const uint64_t* keys = nullptr;
-  const uint32_t* starts = nullptr;
-  uint32_t cells = 0, count = 0;
-  float cs = 1;
-  Vec3i lo{}, hi{-1, -1, -1};
-
-  MENISCUS_HD float cell_size() const { return cs; }
-  MENISCUS_HD Vec3i cell_min() const { return lo; }
-  MENISCUS_HD Vec3i cell_max() const { return hi; }
-  MENISCUS_HD uint32_t size() const { return count; }
-  MENISCUS_HD Vec3f point(uint32_t i) const { return sorted[i]; }
-  MENISCUS_HD const Vec3f* points() const { return sorted; }
-  MENISCUS_HD CellRange cell_range(Vec3i c) const {
-    if (c.x < lo.x || c.y < lo.y || c.z < lo.z || c.x > hi.x || c.y > hi.y || c.z > hi.z) return {};
-    const uint32_t i = find_sorted(keys, cells, pack_coords(c.x, c.y, c.z));
-    if (i == kNotFound) return {};
-    return {starts[i], starts[i + 1]};
-  }
-};
-
-struct DeviceGrid {
-  DeviceBuffer<Vec3f> sorted;
-  DeviceBuffer<uint32_t> order;
-  DeviceBuffer<uint64_t> keys;
-  DeviceBuffer<uint32_t> starts;
-  uint32_t cells = 0, count = 0;
-  float cell_size = 1;
-  Vec3i lo{}, hi{-1, -1, -1};
-  GridView view() const { return {sorted.data(), keys.data(), starts.data(), cells, count, cell_size, lo, hi}; }
-};
-
-/// The sparse field on the device: sorted block keys and 512 values per block.
-struct FieldView {
-  const uint64_t* keys = nullptr;
-  const float* values = nullptr;
-  uint32_t blocks = 0;
-  int n = 8, spc = 1;  ///< cells per block edge, samples per cell
-  float background = 0;
-
-  MENISCUS_HD float value(Vec3i cell, int s) const {
-    auto div = [this](int32_t v) { return v >= 0 ? v / n : -((-v + n - 1) / n); };
-    const Vec3i b{div(cell.x), div(cell.y), div(cell.z)};
-    const uint32_t i = find_sorted(keys, blocks, pack_coords(b.x, b.y, b.z));
-    if (i == kNotFound) return background;
-    const Vec3i l{cell.x - b.x * n, cell.y - b.y * n, cell.z - b.z * n};
-    return values[std::size_t(i) * kBlockSamples + std::size_t(((l.z * n + l.y) * n + l.x) * spc + s)];
-  }
-};
-
-struct DeviceField {
-  SampleLattice lattice;
-  DeviceBuffer<uint64_t> keys;
-  DeviceBuffer<float> values;
-  uint32_t blocks = 0;
-  float background = 0;
-  FieldView view() const {
-    return {keys.data(), values.data(), blocks, lattice.block_cells(), lattice.samples_per_cell(), background};
-  }
-};
-
-struct DeviceMesh {
-  DeviceBuffer<Vec3f> vertices;
-  DeviceBuffer<uint32_t> triangles;  ///< 3 per triangle
-  std::size_t vertex_count = 0, triangle_count = 0;
-};
-
-/// Mesh connectivity on the device (the CPU's Adjacency).
-struct DeviceAdjacency {
-  DeviceBuffer<uint32_t> offsets, neighbors, tri_offsets, tri_ids;
-};
+using ::meniscus::CellRange;
+using ::meniscus::FieldView;
+using ::meniscus::find_sorted;
+using ::meniscus::GridView;
+using ::meniscus::SampleOffsets;
+using DeviceGrid = GridBuffers<Device>;
+using DeviceField = FieldBuffers<Device>;
+using DeviceMesh = MeshBuffers<Device>;
+using DeviceAdjacency = AdjacencyBuffers<Device>;
 
 // --- stages ---------------------------------------------------------------------------------------
 

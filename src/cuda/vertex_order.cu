@@ -58,7 +58,7 @@ void reorder_vertices_spatially(DeviceMesh& mesh, float cell) {
   DeviceBuffer<uint32_t> keys(std::max(nv, nt)), ids(std::max(nv, nt)), new_of_old(nv);
   MENISCUS_LAUNCH(morton_kernel, blocks_for(nv), 256)(mesh.vertices.data(), nv, 1.0f / cell, keys.data(), ids.data());
   MENISCUS_CUDA_CHECK(cudaGetLastError());
-  sort_pairs(keys, ids, nv, 0, 30);  // stable: ties keep the old order, as on the CPU
+  sort_pairs(Device{}, keys.data(), ids.data(), nv, 0, 30);  // stable: ties keep the old order, as on the CPU
   DeviceBuffer<Vec3f> sorted(nv);
   MENISCUS_LAUNCH(permute_vertices_kernel, blocks_for(nv), 256)(mesh.vertices.data(), ids.data(), nv, sorted.data(),
                                                    new_of_old.data());
@@ -69,7 +69,7 @@ void reorder_vertices_spatially(DeviceMesh& mesh, float cell) {
   MENISCUS_LAUNCH(remap_triangles_kernel, blocks_for(nt), 256)(mesh.triangles.data(), new_of_old.data(), nt, keys.data(),
                                                   ids.data());
   MENISCUS_CUDA_CHECK(cudaGetLastError());
-  sort_pairs(keys, ids, nt, 0, 32);
+  sort_pairs(Device{}, keys.data(), ids.data(), nt, 0, 32);
   DeviceBuffer<uint32_t> tris(3 * nt);
   MENISCUS_LAUNCH(gather_triangles_kernel, blocks_for(nt), 256)(mesh.triangles.data(), ids.data(), nt, tris.data());
   MENISCUS_CUDA_CHECK(cudaGetLastError());

@@ -130,8 +130,8 @@ void drop_components(DeviceMesh& mesh, const DeviceBuffer<uint32_t>& root, const
   MENISCUS_LAUNCH(keep_flags_kernel, blocks_for(nt), 256)(mesh.triangles.data(), nt, root.data(), drop.data(), keep.data(),
                                              used.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
-  exclusive_sum(keep.data(), tri_pos.data(), nt);
-  exclusive_sum(used.data(), vertex_pos.data(), nv);
+  exclusive_sum(Device{}, keep.data(), tri_pos.data(), nt);
+  exclusive_sum(Device{}, used.data(), vertex_pos.data(), nv);
   const uint32_t new_nt = tri_pos.get(nt), new_nv = vertex_pos.get(nv);
   DeviceBuffer<uint32_t> new_tris(3 * std::size_t(new_nt));
   DeviceBuffer<Vec3f> new_x(new_nv);
@@ -216,7 +216,7 @@ std::size_t remove_unsupported_blobs(DeviceMesh& mesh, const DeviceGrid& grid, d
   MENISCUS_LAUNCH(blob_candidate_kernel, blocks_for(nv), 256)(c.root.data(), c.volume.data(), c.has.data(), nv, max_volume,
                                                  flag.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
-  exclusive_sum(flag.data(), slot.data(), nv);
+  exclusive_sum(Device{}, flag.data(), slot.data(), nv);
   const uint32_t candidates = slot.get(nv);
   if (candidates == 0) return 0;
   DeviceBuffer<uint32_t> list(candidates), counts(candidates), start(std::size_t(candidates) + 1), cursor(candidates);
@@ -226,7 +226,7 @@ std::size_t remove_unsupported_blobs(DeviceMesh& mesh, const DeviceGrid& grid, d
   MENISCUS_LAUNCH(blob_count_kernel, blocks_for(nt), 256)(mesh.triangles.data(), nt, c.root.data(), flag.data(), slot.data(),
                                              counts.data());
   MENISCUS_CUDA_CHECK_LAUNCH();
-  exclusive_sum(counts.data(), start.data(), candidates);
+  exclusive_sum(Device{}, counts.data(), start.data(), candidates);
   DeviceBuffer<uint32_t> ids(start.get(candidates));
   cursor.zero();
   MENISCUS_LAUNCH(blob_fill_kernel, blocks_for(nt), 256)(mesh.triangles.data(), nt, c.root.data(), flag.data(), slot.data(),

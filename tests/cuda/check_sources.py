@@ -22,7 +22,7 @@ for path in sorted((root / "src").rglob("*")):
             bad.append(f"{path.relative_to(root)}:{n}: raw kernel launch (use MENISCUS_LAUNCH): {line.strip()}")
         if re.search(r"\bcudaMem(cpy|set)\s*\(", code):
             bad.append(f"{path.relative_to(root)}:{n}: uncounted copy (use counted_memcpy / counted_memset): {line.strip()}")
-launches = sum(p.read_text(encoding="utf-8").count("MENISCUS_LAUNCH(") for p in (root / "src/cuda").glob("*.cu"))
+launches = sum(p.read_text(encoding="utf-8").count("MENISCUS_LAUNCH(") for p in (root / "src").rglob("*") if p.suffix in (".cu", ".hpp"))
 print(f"{launches} launches through MENISCUS_LAUNCH")
 print("\n".join(bad))
 sys.exit(1 if bad or launches == 0 else 0)

@@ -230,5 +230,74 @@ TEST(Primitives, ChunkOffsetsAreTheSerialPrefixSum) {
   EXPECT_EQ(offsets, std::vector<std::size_t>{0});
 }
 
+
+// --- the backend primitives' CPU versions (the device's have the same contracts) -----------------
+
+TEST(BackendPrimitives, ExclusiveSumHasTheTotalAtTheEndAndMayRunInPlace) {
+  for (std::size_t n : {std::size_t(0), std::size_t(1), std::size_t(1000), 3 * kOffsetChunk + 17}) {
+    std::vector<uint64_t> in(n);
+    std::mt19937 rng(uint32_t(n));
+    for (uint64_t& v : in) v = rng() % 7;
+    std::vector<uint64_t> expected(n + 1, 0);
+    for (std::size_t i = 0; i < n; ++i) expected[i + 1] = expected[i] + in[i];
+    std::vector<uint64_t> out(n + 1, 99);
+    with_threads(4, [&] { exclusive_sum(Host{}, in.data(), out.data(), n); });
+    EXPECT_EQ(out, expected) << n;
+    std::vector<uint64_t> same(in);
+    same.push_back(0);
+    exclusive_sum(Host{}, same.data(), same.data(), n);
+    EXPECT_EQ(same, expected) << n << " in place";
+  }
+}
+
+TEST(BackendPrimitives, SortPairsIsStableOnTheBitsAskedFor) {
+  const std::size_t n = 300000;
+  std::vector<uint64_t> keys(n);
+  std::vector<uint32_t> values(n);
+  std::mt19937_64 rng(5);
+  for (std::size_t i = 0; i < n; ++i) keys[i] = rng(), values[i] = uint32_t(i);
+  // Bits [8, 20) only: many ties, which must keep their order (the values ascend within a key).
+  std::vector<std::pair<uint64_t, uint32_t>> expected(n);
+  for (std::size_t i = 0; i < n; ++i) expected[i] = {keys[i], values[i]};
+  std::stable_sort(expected.begin(), expected.end(),
+                   [](const auto& a, const auto& b) { return (a.first >> 8 & 0xfff) < (b.first >> 8 & 0xfff); });
+  sort_pairs(Host{}, keys.data(), values.data(), n, 8, 20);
+  for (std::size_t i = 0; i < n; ++i) {
+    ASSERT_EQ(keys[i], expected[i].first) << i;
+    ASSERT_EQ(values[i], expected[i].second) << i;
+  }
+}
+
+TEST(BackendPrimitives, UniqueSortedAndReduceIndex) {
+  std::vector<uint64_t> keys = {1, 1, 2, 5, 5, 5, 9};
+  ASSERT_EQ(unique_sorted(Host{}, keys.data(), keys.size()), 4u);
+  EXPECT_EQ(std::vector<uint64_t>(keys.begin(), keys.begin() + 4), (std::vector<uint64_t>{1, 2, 5, 9}));
+  const std::vector<float> v = spread_floats(100000, 3);
+  const float expected = *std::min_element(v.begin(), v.end());
+  const float got = with_threads(
+      4, [&] { return reduce_index(Host{}, v.size(), INFINITY, [&](std::size_t i) { return v[i]; },
+                                   [](float a, float b) { return b < a ? b : a; }); });
+  EXPECT_EQ(got, expected);
+  EXPECT_EQ(reduce_index(Host{}, 0, 7, [](std::size_t) { return 1; }, [](int a, int b) { return a + b; }), 7);
+}
+
+TEST(BackendPrimitives, HostBufferHasTheDeviceBufferInterface) {
+  BufferOf<Host, uint32_t> b(5);
+  b.zero();
+  EXPECT_EQ(b.size(), 5u);
+  EXPECT_EQ(b.get(4), 0u);
+  const uint32_t in[3] = {7, 8, 9};
+  b.upload(in, 3);
+  EXPECT_EQ(b.size(), 3u);
+  HostBuffer<uint32_t> c;
+  c.copy_from(b);
+  uint32_t out[3] = {};
+  c.download(out, 3);
+  EXPECT_EQ(out[2], 9u);
+  EXPECT_THROW(c.download(out, 4), std::out_of_range);
+  b.resize(0);
+  EXPECT_EQ(b.data(), nullptr);
+}
+
 }  // namespace
 }  // namespace meniscus

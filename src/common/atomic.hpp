@@ -1,0 +1,50 @@
+// meniscus — atomics for code written once for both backends (MENISCUS_HD): CUDA's atomic
+// functions in device code, std::atomic_ref on the CPU (and on the emulated device, whose kernels
+// are CPU code). Relaxed order: they count, take minima and claim slots; what is read after a
+// pass is read after the pass's end (a kernel's end, or the CPU loop's join). Code that uses them
+// must give a result independent of the threads' order (counts, min/max, a set of claimed flags),
+// or say where it does not.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+
+#include "meniscus/vec.hpp"
+
+namespace meniscus {
+
+#if defined(__CUDA_ARCH__)
+template <class T>
+__device__ inline T atomic_add(T* p, T v) { return atomicAdd(p, v); }
+template <class T>
+__device__ inline T atomic_min(T* p, T v) { return atomicMin(p, v); }
+template <class T>
+__device__ inline T atomic_max(T* p, T v) { return atomicMax(p, v); }
+template <class T>
+__device__ inline T atomic_exchange(T* p, T v) { return atomicExch(p, v); }
+#else
+/// *p += v; returns the old value.
+template <class T>
+inline T atomic_add(T* p, T v) { return std::atomic_ref<T>(*p).fetch_add(v, std::memory_order_relaxed); }
+/// *p = min(*p, v); returns the old value.
+template <class T>
+inline T atomic_min(T* p, T v) {
+  std::atomic_ref<T> a(*p);
+  T old = a.load(std::memory_order_relaxed);
+  while (v < old && !a.compare_exchange_weak(old, v, std::memory_order_relaxed)) {}
+  return old;
+}
+/// *p = max(*p, v); returns the old value.
+template <class T>
+inline T atomic_max(T* p, T v) {
+  std::atomic_ref<T> a(*p);
+  T old = a.load(std::memory_order_relaxed);
+  while (old < v && !a.compare_exchange_weak(old, v, std::memory_order_relaxed)) {}
+  return old;
+}
+/// *p = v; returns the old value.
+template <class T>
+inline T atomic_exchange(T* p, T v) { return std::atomic_ref<T>(*p).exchange(v, std::memory_order_relaxed); }
+#endif
+
+}  // namespace meniscus

@@ -20,6 +20,7 @@
 #include <utility>
 #include <vector>
 
+#include "common/atomic.hpp"
 #include "common/primitives.hpp"
 
 namespace meniscus {
@@ -297,6 +298,29 @@ TEST(BackendPrimitives, HostBufferHasTheDeviceBufferInterface) {
   EXPECT_THROW(c.download(out, 4), std::out_of_range);
   b.resize(0);
   EXPECT_EQ(b.data(), nullptr);
+}
+
+
+TEST(BackendPrimitives, AtomicsOfSharedCodeCountAndTakeMinimaUnderContention) {
+  uint32_t count = 0, least = UINT32_MAX, most = 0;
+  unsigned long long wide = 0;
+  with_threads(4, [&] {
+    for_each_index(Host{}, 100000, [&](std::size_t i) {
+      atomic_add(&count, 1u);
+      atomic_add(&wide, 2ull);
+      atomic_min(&least, uint32_t(i ^ 0x5555));
+      atomic_max(&most, uint32_t(i ^ 0x5555));
+    });
+  });
+  EXPECT_EQ(count, 100000u);
+  EXPECT_EQ(wide, 200000ull);
+  uint32_t lo = UINT32_MAX, hi = 0;
+  for (uint32_t i = 0; i < 100000; ++i) lo = std::min(lo, i ^ 0x5555u), hi = std::max(hi, i ^ 0x5555u);
+  EXPECT_EQ(least, lo);
+  EXPECT_EQ(most, hi);
+  uint32_t slot = 3;
+  EXPECT_EQ(atomic_exchange(&slot, 9u), 3u);
+  EXPECT_EQ(slot, 9u);
 }
 
 }  // namespace

@@ -58,7 +58,7 @@ class HostBuffer {
   std::size_t size_ = 0;
 };
 
-/// The buffer template of backend B, specialised by each backend (the device's in cuda/for_each.hpp).
+/// The buffer template of backend B, specialised by each backend (the device's in cuda/device.hpp).
 template <class B>
 struct BackendBuffer;
 template <>

@@ -7,21 +7,8 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "common/buffer.hpp"
 #include "cuda/cuda_check.hpp"
-
-namespace meniscus::cuda {
-
-/// The device, as a tag for code shared with the CPU backend; its arrays are DeviceBuffers.
-struct Device {};
-
-}  // namespace meniscus::cuda
-
-template <>
-struct meniscus::BackendBuffer<meniscus::cuda::Device> {
-  template <class T>
-  using type = meniscus::cuda::DeviceBuffer<T>;
-};
+#include "cuda/device.hpp"
 
 namespace meniscus::cuda {
 

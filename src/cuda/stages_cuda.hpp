@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "cuda/cuda_check.hpp"
-#include "cuda/for_each.hpp"
+#include "cuda/device.hpp"
 #include "field/field_buffers.hpp"
 #include "field/kernel_impl.hpp"
 #include "field/sparse_field.hpp"

@@ -1,6 +1,7 @@
 // meniscus — the stages of the CUDA backend over device data, mirroring the CPU stage folders:
-// hash_grid.cu (grid/), distance_field.cu (field/), extract.cu (extract/ + mesh/voids),
-// smooth.cu (smooth/), transfer.cu (transfer/). The data are the stage folders' backend templates
+// hash_grid.cu (grid/), distance_field.cu (field/), extract/extract_device.cu and
+// mesh/voids_device.cu (the extraction and the voids, written once over the backend tag in
+// extract/extract_backend.hpp and mesh/voids_backend.hpp), smooth.cu (smooth/), transfer.cu (transfer/). The data are the stage folders' backend templates
 // (GridBuffers, FieldBuffers, MeshBuffers, AdjacencyBuffers) on the Device; their views are plain
 // structs of pointers with MENISCUS_HD accessors, so the shared *_impl.hpp templates run on them.
 #pragma once
@@ -74,9 +75,10 @@ DeviceBuffer<Ellipsoid> unit_volume_shells(const DeviceBuffer<Ellipsoid>& ellips
 DeviceBuffer<float> velocity_weights(const DeviceBuffer<float>& velocity, std::size_t vertices, float reference,
                                      float min_weight);
 
-/// extract_surface() on the device: march (count, scan, write), then weld by sorting edge keys.
+/// extract_surface() on the device (extract/extract_backend.hpp): march (count, scan, write), then weld
+/// by sorting edge keys.
 DeviceMesh extract_surface(const DeviceField& field, float iso, Extractor extractor);
-/// remove_small_voids() on the device; returns the number of voids removed.
+/// remove_small_voids() on the device (mesh/voids_backend.hpp); returns the number of voids removed.
 std::size_t remove_small_voids(DeviceMesh& mesh, double max_volume);
 /// remove_unsupported_blobs() on the device (kernel fields), against the points of `grid`; returns
 /// the number of components removed.

@@ -1,5 +1,5 @@
 // meniscus — the per-cell kernels of the three extractors, written once for the CPU and the CUDA
-// backend (src/cuda/extract.cu): Marching Tiles (Williams 2008), Marching Cubes (Lorensen & Cline 1987) and
+// backend (extract_backend.hpp): Marching Tiles (Williams 2008), Marching Cubes (Lorensen & Cline 1987) and
 // Marching Tetrahedra on the Kuhn split (Doi & Koide 1991).
 //
 // Each kernel reads inside masks of a padded block (bit s of a cell's mask: sample s is inside,

@@ -8,15 +8,22 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <functional>
 #include <numbers>
 #include <string>
 #include <vector>
 
+#include "common/primitives.hpp"
 #include "extract/extract.hpp"
+#include "extract/extract_backend.hpp"
 #include "extract/tile_table.hpp"
+#include "field/distance_field.hpp"
 #include "meniscus/errors.hpp"
+#include "meniscus/io.hpp"
 #include "meniscus/quality.hpp"
+#include "meniscus/reconstruct.hpp"
+#include "support/test_support.hpp"
 
 namespace meniscus {
 namespace {
@@ -323,6 +330,41 @@ TEST(ExtractSurfaceErrors, BlocksOutsideTheEdgeKeyRangeThrowResourceError) {
       ADD_FAILURE() << "block " << bx << " did not throw";
     } catch (const ResourceError& error) {
       EXPECT_NE(std::string(error.what()).find("edge keys"), std::string::npos) << error.what();
+    }
+  }
+}
+
+// The extraction written once over the backend tag (extract_backend.hpp: sorted weld over 64-bit
+// edge keys; what the device runs) and the CPU's (block marching, numbered weld): on real frames,
+// every extractor, run with Host{} it gives the CPU's mesh bit for bit — the same vertices in the
+// same order and the same triangles.
+TEST(ExtractSurfaceBackend, SharedVersionOnTheHostGivesTheCpuMeshBitForBit) {
+  for (const char* frame : {"dam_break_frame_23_24389_particles.ply", "sphysics_dam_break_IPART_29814_particles.ply"}) {
+    const ParticleSet ps = read_particles(test::data_file(std::string("ply/") + frame));
+    const float d = float(estimate_spacing(ps)), r_outer = d;
+    const HashGrid grid(ps.positions, r_outer);
+    for (Extractor e : {Extractor::tiles, Extractor::cubes, Extractor::tetrahedra}) {
+      SCOPED_TRACE(std::string(frame) + " " + name(e));
+      const SampleLattice lattice = lattice_for(e, d / 2);
+      const float band = r_outer + d;
+      const SparseField field = distance_field(grid, lattice, band, band_blocks(grid, lattice, band));
+      const ExtractResult cpu = extract_surface(field, r_outer, e);
+      ASSERT_EQ(cpu.dropped_triangles, 0u);
+
+      FieldBuffers<Host> buffers;
+      buffers.lattice = field.lattice();
+      buffers.blocks = uint32_t(field.block_count());
+      buffers.background = field.background();
+      buffers.keys.upload(field.block_keys().data(), field.block_count());
+      buffers.values.upload(field.block_values(0).data(), field.block_count() * kBlockSamples);
+      const MeshBuffers<Host> shared = extract_surface(Host{}, buffers, r_outer, e);
+
+      ASSERT_GT(cpu.mesh.triangles.size(), 10000u);
+      ASSERT_EQ(shared.vertex_count, cpu.mesh.vertices.size());
+      ASSERT_EQ(shared.triangle_count, cpu.mesh.triangles.size());
+      EXPECT_EQ(std::memcmp(shared.vertices.data(), cpu.mesh.vertices.data(), sizeof(Vec3f) * shared.vertex_count), 0);
+      EXPECT_EQ(std::memcmp(shared.triangles.data(), cpu.mesh.triangles.data(), sizeof(Triangle) * shared.triangle_count),
+                0);
     }
   }
 }

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "common/atomic.hpp"
+#include "common/buffer.hpp"
 #include "common/primitives.hpp"
 
 namespace meniscus {
@@ -237,7 +238,7 @@ TEST(Primitives, ChunkOffsetsAreTheSerialPrefixSum) {
 TEST(BackendPrimitives, ExclusiveSumHasTheTotalAtTheEndAndMayRunInPlace) {
   for (std::size_t n : {std::size_t(0), std::size_t(1), std::size_t(1000), 3 * kOffsetChunk + 17}) {
     std::vector<uint64_t> in(n);
-    std::mt19937 rng(uint32_t(n));
+    std::mt19937 rng(static_cast<uint32_t>(n));
     for (uint64_t& v : in) v = rng() % 7;
     std::vector<uint64_t> expected(n + 1, 0);
     for (std::size_t i = 0; i < n; ++i) expected[i + 1] = expected[i] + in[i];

@@ -1,7 +1,10 @@
 // meniscus — the stages of the CUDA backend over device data, mirroring the CPU stage folders:
-// hash_grid.cu (grid/), distance_field.cu (field/), extract/extract_device.cu and
-// mesh/voids_device.cu (the extraction and the voids, written once over the backend tag in
-// extract/extract_backend.hpp and mesh/voids_backend.hpp), smooth.cu (smooth/), transfer.cu (transfer/). The data are the stage folders' backend templates
+// the hash grid (grid/build_grid.hpp, instantiated in grid/hash_grid_device.cu), the field's band,
+// distance and kernel fields and the per-particle frames (field/band_field.hpp,
+// field/particle_frames.hpp; field/field_device.cu), the velocity weights
+// (transfer/velocity_weights.hpp; transfer/velocity_weights_device.cu), the extraction and the voids
+// (extract/extract_backend.hpp, mesh/voids_backend.hpp; extract/extract_device.cu,
+// mesh/voids_device.cu), smooth.cu (smooth/), transfer.cu (transfer/). The data are the stage folders' backend templates
 // (GridBuffers, FieldBuffers, MeshBuffers, AdjacencyBuffers) on the Device; their views are plain
 // structs of pointers with MENISCUS_HD accessors, so the shared *_impl.hpp templates run on them.
 #pragma once
@@ -36,7 +39,7 @@ using DeviceAdjacency = AdjacencyBuffers<Device>;
 
 // --- stages ---------------------------------------------------------------------------------------
 
-/// Hash grid of `count` device points (grid/hash_grid.cpp): keys, stable radix sort, cell ranges.
+/// Hash grid of `count` device points (grid/build_grid.hpp): keys, stable radix sort, cell ranges.
 /// `lo`/`hi`: the points' cell range (checked on the host against the key range).
 DeviceGrid build_grid(const DeviceBuffer<Vec3f>& points, uint32_t count, float cell_size, Vec3i lo, Vec3i hi);
 
@@ -52,7 +55,7 @@ DeviceField distance_field(const DeviceGrid& grid, const SampleLattice& lattice,
 DeviceField kernel_field(const DeviceGrid& grid, const SampleLattice& lattice, const KernelParticles& k, float support,
                          float iso, float background, DeviceBuffer<uint64_t> keys, std::size_t block_count);
 
-// --- per-particle stages (fields.cu) -------------------------------------------------------------------
+// --- per-particle stages (grid/build_grid.hpp, field/particle_frames.hpp, transfer/velocity_weights.hpp) ---
 
 /// Bounds of `count` device points (exact: min and max are order-independent).
 void point_bounds(const DeviceBuffer<Vec3f>& points, uint32_t count, Vec3f* lo, Vec3f* hi);

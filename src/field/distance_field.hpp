@@ -1,5 +1,8 @@
 // meniscus — the sparse distance-to-nearest-particle field (Williams 2008 §3; Edespong 2010
 // §3.2): φ(x) = min_i |x − P_i| inside a band around the particles, the band limit elsewhere.
+// The CPU's fast paths of band_blocks and distance_field of band_field.hpp (shared with the
+// device, each sample gathering its particles): here each block scatters its particles, rows of
+// samples at a time; test_distance_field.cpp holds the two to the same bits.
 #pragma once
 
 #include <cstddef>

@@ -2,7 +2,9 @@
 // metaballs, Müller, Charypar & Gross 2003 (SPH colour field), Zhu & Bridson 2005, Yu & Turk
 // 2010 (anisotropic kernels). Each is stored in the form the extraction expects of the distance
 // field — larger outside, the surface at the level 0 — so extract_surface(field, 0, …) works
-// unchanged on any of them.
+// unchanged on any of them. The CPU's fast path of kernel_field of band_field.hpp (shared with
+// the device, each sample gathering its particles): here each block scatters its particles;
+// test_field_methods.cpp holds the two to the same bits.
 #pragma once
 
 #include <span>

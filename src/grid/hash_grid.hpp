@@ -1,7 +1,10 @@
 // meniscus — uniform hashed grid over points (Edespong 2010 §3.1; Green 2008 "Particle
 // Simulation using CUDA"): points sorted by cell key, each occupied cell a [begin, end) range
 // of the sorted array. Cells are keyed by their unbounded integer coordinates (63-bit key), so
-// the domain size is not limited by a modulo hash.
+// the domain size is not limited by a modulo hash. The CPU's fast path of build_grid
+// (build_grid.hpp, the build both backends share): its sort keys are the cells' indices in their
+// box, a few bits, and its queries go through a KeyIndex; test_hash_grid.cpp holds the two to the
+// same grid bit for bit.
 #pragma once
 
 #include <cmath>

@@ -4,8 +4,14 @@
 #include <random>
 #include <set>
 
+#include "field/band_field.hpp"
 #include "field/distance_field.hpp"
 #include "field/distance_field_impl.hpp"
+#include "grid/build_grid.hpp"
+#include "meniscus/io.hpp"
+#include "meniscus/reconstruct.hpp"
+#include "support/io_helpers.hpp"
+#include "support/test_support.hpp"
 
 namespace meniscus {
 namespace {
@@ -93,6 +99,53 @@ TEST(DistanceField, BandBlocksListEveryBlockOfTheBandInKeyOrder) {
       EXPECT_EQ(keys, std::vector<uint64_t>(expected.begin(), expected.end()))
           << (pts.size() == cloud.size() ? "compact cloud" : "spread cloud");
     }
+}
+
+// The CPU's band blocks (a byte map over the blocks' box, or per-thread key lists) and its
+// distance field (each block scatters its particles, rows of samples at a time) are fast paths of
+// band_blocks and distance_field written once for both backends (field/band_field.hpp: keys
+// sorted and made unique, each sample gathering its particles): run with Host{} on a real frame,
+// on both lattices, they give the same block keys and the same field values (on every fifth
+// block), bit for bit.
+TEST(DistanceField, SharedGatherOnTheHostIsTheCpuScatterBitForBit) {
+  const ParticleSet ps = read_particles(test::data_file("ply/dam_break_frame_23_24389_particles.ply"));
+  const float d = float(estimate_spacing(ps));
+  const uint32_t n = uint32_t(ps.positions.size());
+  const float cell = 2 * d, band = 1.2f * d;  // as the pipeline's: cells of 2 r_outer, a band past r_outer = d
+  const HashGrid cpu(ps.positions, cell);
+  Vec3f lo, hi;
+  point_bounds(Host{}, ps.positions.data(), n, &lo, &hi);
+  const GridBuffers<Host> grid =
+      build_grid(Host{}, ps.positions.data(), n, cell, grid_cell_of(lo, cell), grid_cell_of(hi, cell));
+  for (const SampleLattice::Kind kind : {SampleLattice::Kind::a15, SampleLattice::Kind::cubic}) {
+    SCOPED_TRACE(kind == SampleLattice::Kind::a15 ? "a15" : "cubic");
+    const SampleLattice lattice{kind, kind == SampleLattice::Kind::a15 ? d : d / 2};
+    const std::vector<uint64_t> cpu_keys = band_blocks(cpu, lattice, band);
+    std::size_t blocks = 0;
+    HostBuffer<uint64_t> keys = band_blocks(Host{}, grid, lattice, band, &blocks);
+    ASSERT_EQ(blocks, cpu_keys.size());
+    ASSERT_GT(blocks, 100u);
+    for (std::size_t b = 0; b < blocks; ++b) ASSERT_EQ(keys.data()[b], cpu_keys[b]) << b;
+    const SparseField scattered = distance_field(cpu, lattice, band, cpu_keys);
+    EXPECT_EQ(scattered.background(), band);
+    // The gather over every fifth block: on the CPU it costs far more than the scatter.
+    std::vector<uint64_t> every_fifth;
+    for (std::size_t b = 0; b < blocks; b += 5) every_fifth.push_back(cpu_keys[b]);
+    keys.upload(every_fifth.data(), every_fifth.size());
+    const FieldBuffers<Host> gathered = distance_field(Host{}, grid, lattice, band, std::move(keys), every_fifth.size());
+    ASSERT_EQ(gathered.blocks, every_fifth.size());
+    EXPECT_EQ(gathered.background, band);
+    std::size_t inside = 0;
+    for (std::size_t g = 0; g < every_fifth.size(); ++g) {
+      const auto values = scattered.block_values(5 * g);
+      for (std::size_t j = 0; j < std::size_t(kBlockSamples); ++j) {
+        const float value = gathered.values.data()[g * kBlockSamples + j];
+        ASSERT_TRUE(test::same_bits(value, values[j])) << "block " << 5 * g << " sample " << j << ": " << value << " vs " << values[j];
+        inside += values[j] < band;
+      }
+    }
+    EXPECT_GT(inside, every_fifth.size() * kBlockSamples / 10);  // not just the band's limit
+  }
 }
 
 }  // namespace

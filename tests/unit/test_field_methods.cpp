@@ -10,10 +10,12 @@
 #include "extract/extract.hpp"
 #include "field/anisotropy.hpp"
 #include "field/anisotropy_impl.hpp"
+#include "field/band_field.hpp"
 #include "field/distance_field.hpp"
 #include "field/eigen_sym3_impl.hpp"
 #include "field/kernel_field.hpp"
 #include "field/kernel_impl.hpp"
+#include "grid/build_grid.hpp"
 #include "meniscus/io.hpp"
 #include "meniscus/quality.hpp"
 #include "meniscus/reconstruct.hpp"
@@ -225,13 +227,20 @@ TEST(KernelField, EveryMethodIsNegativeInsideAndPositiveOutside) {
   }
 }
 
-// The CUDA backend gathers each sample's kernel sum (kernel_field_sample) where the CPU scatters
-// each particle into its block: the same terms in the same order, so the same bits. On a real
-// frame, both lattices, every method, with per-particle volumes and ellipsoids.
+// The field written once for both backends (field/band_field.hpp, run here with Host{} over the
+// grid of grid/build_grid.hpp) gathers each sample's kernel sum (kernel_field_sample) where the
+// CPU's fast path scatters each particle into its block: the same terms in the same order, so the
+// same bits. On a real frame, both lattices, every method, with per-particle volumes and
+// ellipsoids, on every ninth block.
 TEST(KernelField, PerSampleGatherMatchesTheScatterBitForBit) {
   const ParticleSet ps = read_particles(test::data_file("ply/double_dam_break_frame_26_4732_particles.ply"));
   const float d = float(estimate_spacing(ps)), R = 2 * d;
   const HashGrid grid(ps.positions, 2 * d);
+  const uint32_t count = uint32_t(ps.positions.size());
+  Vec3f lo, hi;
+  point_bounds(Host{}, ps.positions.data(), count, &lo, &hi);
+  const GridBuffers<Host> shared_grid =
+      build_grid(Host{}, ps.positions.data(), count, 2 * d, grid_cell_of(lo, 2 * d), grid_cell_of(hi, 2 * d));
   AnisotropyConstants k;
   k.bulk_variance = yu_turk_bulk_variance(2 * R);
   const HashGrid pca(ps.positions, 2 * R);
@@ -266,19 +275,19 @@ TEST(KernelField, PerSampleGatherMatchesTheScatterBitForBit) {
       const float support = kernel_support(in);
       const SparseField f = kernel_field(in, lattice, band_blocks(grid, lattice, support + d));
       const KernelParticles kp = kernel_particles(in);
-      const int n = lattice.block_cells(), spc = lattice.samples_per_cell();
-      for (std::size_t b = 0; b < f.block_count(); b += 9) {
-        const Vec3i origin = f.block_origin(b);
+      std::vector<uint64_t> every_ninth;
+      for (std::size_t b = 0; b < f.block_count(); b += 9) every_ninth.push_back(f.block_keys()[b]);
+      HostBuffer<uint64_t> keys;
+      keys.upload(every_ninth.data(), every_ninth.size());
+      const FieldBuffers<Host> gathered = kernel_field(Host{}, shared_grid, lattice, kp, support, in.iso, f.background(),
+                                                       std::move(keys), every_ninth.size());
+      for (std::size_t g = 0; g < every_ninth.size(); ++g) {
+        const std::size_t b = 9 * g;
         for (int j = 0; j < kBlockSamples; ++j) {
-          const int cell = j / spc, s = j % spc;
-          const Vec3i c{origin.x + cell % n, origin.y + (cell / n) % n, origin.z + cell / (n * n)};
-          const Vec3f o = lattice.sample_offset(s);
-          const float off[3] = {o.x, o.y, o.z};
-          const float gathered = kernel_field_sample(grid, kp, support, in.iso, f.background(), origin, n,
-                                                     lattice.cell_size, c, off);
+          const float value = gathered.values.data()[g * kBlockSamples + std::size_t(j)];
           const float scattered = f.block_values(b)[std::size_t(j)];
-          ASSERT_TRUE(test::same_bits(gathered, scattered))
-              << to_string(m) << " block " << b << " sample " << j << ": " << gathered << " vs " << scattered;
+          ASSERT_TRUE(test::same_bits(value, scattered))
+              << to_string(m) << " block " << b << " sample " << j << ": " << value << " vs " << scattered;
           ++compared;
           inside += scattered < 0;
         }

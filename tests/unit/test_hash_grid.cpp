@@ -6,8 +6,13 @@
 #include <random>
 #include <set>
 
+#include "grid/build_grid.hpp"
 #include "grid/hash_grid.hpp"
 #include "meniscus/errors.hpp"
+#include "meniscus/io.hpp"
+#include "meniscus/reconstruct.hpp"
+#include "support/io_helpers.hpp"
+#include "support/test_support.hpp"
 
 namespace meniscus {
 namespace {
@@ -159,6 +164,48 @@ TEST(HashGrid, RefusesCoordinatesBeyondTheKeyRange) {
 TEST(HashGrid, EmptyGridFindsNothing) {
   const HashGrid grid(std::vector<Vec3f>{}, 1.0f);
   EXPECT_EQ(grid.nearest({0, 0, 0}).index, kNotFound);
+}
+
+// The CPU's HashGrid (a compact key of the cells' box, sorted on its few bits) is a fast path of
+// build_grid, the build written once for both backends (grid/build_grid.hpp, 64-bit cell keys):
+// run with Host{} on a real frame, at the pipeline's cell and at the field's, it gives the same
+// bounds, sorted points (bits), order, cell keys and cell starts.
+TEST(HashGrid, SharedBuildOnTheHostIsTheCpuGridBitForBit) {
+  const ParticleSet ps = read_particles(test::data_file("ply/dam_break_frame_23_24389_particles.ply"));
+  const float d = float(estimate_spacing(ps));
+  const uint32_t n = uint32_t(ps.positions.size());
+  Vec3f lo, hi;
+  point_bounds(Host{}, ps.positions.data(), n, &lo, &hi);
+  Vec3f serial_lo = ps.positions[0], serial_hi = ps.positions[0];
+  for (const Vec3f& p : ps.positions) serial_lo = min(serial_lo, p), serial_hi = max(serial_hi, p);
+  for (int a = 0; a < 3; ++a) {
+    ASSERT_TRUE(test::same_bits(lo[a], serial_lo[a]));
+    ASSERT_TRUE(test::same_bits(hi[a], serial_hi[a]));
+  }
+  for (const float cell : {2 * d, 4 * d, 0.5f * d}) {
+    SCOPED_TRACE(cell);
+    const HashGrid cpu(ps.positions, cell);
+    const GridBuffers<Host> shared =
+        build_grid(Host{}, ps.positions.data(), n, cell, grid_cell_of(lo, cell), grid_cell_of(hi, cell));
+    ASSERT_EQ(shared.count, n);
+    ASSERT_EQ(shared.cells, cpu.cell_keys().size());
+    EXPECT_EQ(shared.lo, cpu.cell_min());
+    EXPECT_EQ(shared.hi, cpu.cell_max());
+    for (uint32_t i = 0; i < n; ++i) {
+      ASSERT_EQ(shared.order.data()[i], cpu.order()[i]) << i;
+      for (int a = 0; a < 3; ++a) ASSERT_TRUE(test::same_bits(shared.sorted.data()[i][a], cpu.sorted_points()[i][a]));
+    }
+    for (uint32_t c = 0; c < shared.cells; ++c) {
+      ASSERT_EQ(shared.keys.data()[c], cpu.cell_keys()[c]) << c;
+      ASSERT_EQ(shared.starts.data()[c], cpu.cell_starts()[c]) << c;
+    }
+    EXPECT_EQ(shared.starts.data()[shared.cells], cpu.cell_starts()[shared.cells]);
+    // Per-particle data into the grid's order.
+    std::vector<float> x(n);
+    for (uint32_t i = 0; i < n; ++i) x[i] = ps.positions[i].x;
+    const HostBuffer<float> sorted_x = to_sorted_order(Host{}, shared, x.data());
+    for (uint32_t i = 0; i < n; ++i) ASSERT_TRUE(test::same_bits(sorted_x.data()[i], cpu.sorted_points()[i].x));
+  }
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 // meniscus — the stages of the CUDA backend over device data, mirroring the CPU stage folders:
 // hash_grid.cu (grid/), distance_field.cu (field/), extract.cu (extract/ + mesh/voids),
-// smooth.cu (smooth/), transfer.cu (transfer/). The data are the stage folders' backend templates
+// transfer.cu (transfer/); the stages written once over the backend tag are defined in their
+// folders' *_device.cu: mesh/vertex_order_device.cu, mesh/adjacency_device.cu,
+// mesh/normals_device.cu, smooth/smooth_device.cu. The data are the stage folders' backend templates
 // (GridBuffers, FieldBuffers, MeshBuffers, AdjacencyBuffers) on the Device; their views are plain
 // structs of pointers with MENISCUS_HD accessors, so the shared *_impl.hpp templates run on them.
 #pragma once
@@ -81,9 +83,11 @@ std::size_t remove_small_voids(DeviceMesh& mesh, double max_volume);
 /// remove_unsupported_blobs() on the device (kernel fields), against the points of `grid`; returns
 /// the number of components removed.
 std::size_t remove_unsupported_blobs(DeviceMesh& mesh, const DeviceGrid& grid, double max_volume, double min_volume);
-/// reorder_vertices_spatially() on the device: the same numbering as the CPU.
+/// reorder_vertices_spatially() on the device (mesh/vertex_order_backend.hpp): the same numbering
+/// as the CPU.
 void reorder_vertices_spatially(DeviceMesh& mesh, float cell);
 
+/// The mesh's adjacency on the device (mesh/adjacency_backend.hpp).
 DeviceAdjacency build_adjacency(const DeviceMesh& mesh);
 
 struct SmoothSettings : SmoothSchedule {
@@ -95,12 +99,12 @@ struct SmoothSettings : SmoothSchedule {
   /// Per-vertex factor on the damping of every sweep (velocity weighting); null: 1.
   const float* vertex_relax = nullptr;
 };
-/// smooth_surface() on the device (constrained against `grid`).
+/// smooth_surface() on the device (constrained against `grid`; smooth/sweeps_backend.hpp).
 SmoothingStats smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGrid& grid, const SmoothSettings& s);
 
-/// erode() on the device; returns the flipped triangle count.
+/// erode() on the device (mesh/normals_backend.hpp); returns the flipped triangle count.
 std::size_t erode(DeviceMesh& mesh, const DeviceAdjacency& adj, float distance);
-/// vertex_normals() on the device.
+/// vertex_normals() on the device (mesh/normals_backend.hpp).
 DeviceBuffer<Vec3f> vertex_normals(const DeviceMesh& mesh, const DeviceAdjacency& adj);
 /// transfer_attribute() on the device: `values` are the attribute in the original particle
 /// order, `components` per particle; returns components per vertex.

@@ -38,7 +38,7 @@ T reduce(std::size_t n, std::size_t grain, T identity, Body&& body, Combine&& co
 /// reduce over a fixed tree, so a floating-point sum comes out the same on any number of threads:
 /// a range longer than `grain` splits at begin + (end − begin)/2, each leaf is folded by body from
 /// `identity`, each node is combine(left, right). It is oneTBB's parallel_deterministic_reduce over
-/// blocked_range(0, n, grain), the tree smooth/operators_impl.hpp's sum_tree_* rebuilds for the device.
+/// blocked_range(0, n, grain), the tree the device's deterministic_sum (cuda/primitives.hpp) evaluates.
 template <class T, class Body, class Combine>
 T deterministic_reduce(std::size_t n, std::size_t grain, T identity, Body&& body, Combine&& combine) {
   return tbb::parallel_deterministic_reduce(
@@ -179,6 +179,21 @@ T reduce_index(Host, std::size_t n, T identity, F f, Combine combine) {
         return acc;
       },
       combine);
+}
+
+/// Σ_{i<n} term(i) in doubles, in deterministic_reduce's fixed tree over [0, n) with `grain`: each
+/// leaf summed in index order from 0.0, each node left + right. The same bits on any number of
+/// threads, and as the device's deterministic_sum (cuda/primitives.hpp), which evaluates the same
+/// tree in parallel. term is a MENISCUS_HD callable of the index returning a double.
+template <class F>
+double deterministic_sum(Host, std::size_t n, std::size_t grain, F term) {
+  return deterministic_reduce(
+      n, grain, 0.0,
+      [&](std::size_t begin, std::size_t end, double acc) {
+        for (std::size_t i = begin; i < end; ++i) acc += term(i);
+        return acc;
+      },
+      [](double a, double b) { return a + b; });
 }
 
 }  // namespace meniscus

@@ -1,10 +1,11 @@
 // meniscus — the stages of the CUDA backend over device data, mirroring the CPU stage folders:
-// the hash grid (grid/build_grid.hpp, instantiated in grid/hash_grid_device.cu), the field's band,
-// distance and kernel fields and the per-particle frames (field/band_field.hpp,
-// field/particle_frames.hpp; field/field_device.cu), the velocity weights
-// (transfer/velocity_weights.hpp; transfer/velocity_weights_device.cu), the extraction and the voids
-// (extract/extract_backend.hpp, mesh/voids_backend.hpp; extract/extract_device.cu,
-// mesh/voids_device.cu), smooth.cu (smooth/), transfer.cu (transfer/). The data are the stage folders' backend templates
+// every stage is written once over the backend tag in its folder and instantiated for the device
+// in the folder's *_device.cu: the hash grid (grid/build_grid.hpp), the field's band, distance and
+// kernel fields and the per-particle frames (field/band_field.hpp, field/particle_frames.hpp), the
+// velocity weights (transfer/velocity_weights.hpp), the extraction and the voids
+// (extract/extract_backend.hpp, mesh/voids_backend.hpp), the vertex reorder, adjacency and normals
+// (mesh/*_backend.hpp), the sweeps (smooth/sweeps_backend.hpp); transfer.cu holds the attribute
+// transfer. The data are the stage folders' backend templates
 // (GridBuffers, FieldBuffers, MeshBuffers, AdjacencyBuffers) on the Device; their views are plain
 // structs of pointers with MENISCUS_HD accessors, so the shared *_impl.hpp templates run on them.
 #pragma once
@@ -86,9 +87,11 @@ std::size_t remove_small_voids(DeviceMesh& mesh, double max_volume);
 /// remove_unsupported_blobs() on the device (kernel fields), against the points of `grid`; returns
 /// the number of components removed.
 std::size_t remove_unsupported_blobs(DeviceMesh& mesh, const DeviceGrid& grid, double max_volume, double min_volume);
-/// reorder_vertices_spatially() on the device: the same numbering as the CPU.
+/// reorder_vertices_spatially() on the device (mesh/vertex_order_backend.hpp): the same numbering
+/// as the CPU.
 void reorder_vertices_spatially(DeviceMesh& mesh, float cell);
 
+/// The mesh's adjacency on the device (mesh/adjacency_backend.hpp).
 DeviceAdjacency build_adjacency(const DeviceMesh& mesh);
 
 struct SmoothSettings : SmoothSchedule {
@@ -100,12 +103,12 @@ struct SmoothSettings : SmoothSchedule {
   /// Per-vertex factor on the damping of every sweep (velocity weighting); null: 1.
   const float* vertex_relax = nullptr;
 };
-/// smooth_surface() on the device (constrained against `grid`).
+/// smooth_surface() on the device (constrained against `grid`; smooth/sweeps_backend.hpp).
 SmoothingStats smooth_surface(DeviceMesh& mesh, const DeviceAdjacency& adj, const DeviceGrid& grid, const SmoothSettings& s);
 
-/// erode() on the device; returns the flipped triangle count.
+/// erode() on the device (mesh/normals_backend.hpp); returns the flipped triangle count.
 std::size_t erode(DeviceMesh& mesh, const DeviceAdjacency& adj, float distance);
-/// vertex_normals() on the device.
+/// vertex_normals() on the device (mesh/normals_backend.hpp).
 DeviceBuffer<Vec3f> vertex_normals(const DeviceMesh& mesh, const DeviceAdjacency& adj);
 /// transfer_attribute() on the device: `values` are the attribute in the original particle
 /// order, `components` per particle; returns components per vertex.

@@ -1,31 +1,10 @@
-// meniscus — erosion, area-weighted vertex normals and attribute transfer on the device: the
-// per-element work of mesh/normals_impl.hpp and transfer/transfer_impl.hpp, shared with the CPU, run
-// by for_each_index. The normals are gathered per vertex (the CPU scatters them; the same sums).
+// meniscus — attribute transfer on the device: the per-vertex work of transfer/transfer_impl.hpp,
+// shared with the CPU, run by for_each_index.
 #include "cuda/for_each.hpp"
 #include "cuda/stages_cuda.hpp"
-#include "mesh/normals_impl.hpp"
 #include "transfer/transfer_impl.hpp"
 
 namespace meniscus::cuda {
-
-DeviceBuffer<Vec3f> vertex_normals(const DeviceMesh& mesh, const DeviceAdjacency& adj) {
-  DeviceBuffer<Vec3f> n(mesh.vertex_count);
-  for_each_index(Device{}, mesh.vertex_count,
-                 GatherNormal<const uint32_t*>{mesh.vertices.data(), mesh.triangles.data(), adj.tri_offsets.data(),
-                                               adj.tri_ids.data(), n.data()});
-  return n;
-}
-
-std::size_t erode(DeviceMesh& mesh, const DeviceAdjacency& adj, float distance) {
-  if (mesh.vertex_count == 0) return 0;
-  const DeviceBuffer<Vec3f> n = vertex_normals(mesh, adj);
-  DeviceBuffer<Vec3f> before(mesh.triangle_count);
-  DeviceBuffer<unsigned long long> flipped(1);
-  flipped.zero();
-  erode_along(Device{}, mesh.vertices.data(), static_cast<const uint32_t*>(mesh.triangles.data()), mesh.vertex_count,
-              mesh.triangle_count, n.data(), before.data(), distance, flipped.data());
-  return std::size_t(flipped.get(0));
-}
 
 namespace {
 

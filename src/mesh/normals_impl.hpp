@@ -1,6 +1,6 @@
 // meniscus — the per-element work of vertex normals and erosion (docs/method.md), written once for
 // both backends as MENISCUS_HD callables of the element index that for_each_index runs on the CPU
-// (mesh/normals.cpp) and on the device (cuda/transfer.cu). Triangles are read through
+// (mesh/normals.cpp) and by the shared stages (mesh/normals_backend.hpp) the device runs. Triangles are read through
 // corners_of(tris, f): the device's flat index array or the CPU's Triangle array.
 #pragma once
 

@@ -6,28 +6,11 @@
 
 #include "common/huge_pages.hpp"
 #include "common/for_each.hpp"
+#include "common/primitives.hpp"
 #include "smooth/cotangent_impl.hpp"
 #include "smooth/operators_impl.hpp"
 
 namespace meniscus {
-
-namespace {
-
-/// Σ_k term(k) over [0, n) in the fixed tree of operators_impl.hpp.
-template <class Term>
-double sum_in_tree(std::size_t n, Term&& term) {
-  const std::vector<std::size_t> leaves = sum_tree_leaves(n);
-  std::vector<double> sums(leaves.size() - 1);
-  for_each_index(sums.size(), [&](std::size_t l) {
-    double s = 0.0;
-    for (std::size_t k = leaves[l]; k < leaves[l + 1]; ++k) s += term(k);
-    sums[l] = s;
-  });
-  std::size_t next = 0;
-  return sum_tree_combine(0, n, kSumTreeGrain, sums.data(), &next);
-}
-
-}  // namespace
 
 CotanOperator build_cotan_operator(std::span<const Vec3f> x, std::span<const Triangle> triangles,
                                    const Adjacency& adj, float area_floor) {
@@ -77,7 +60,8 @@ void apply_w(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3
 double bilaplacian_energy(const CotanOperator& op, std::span<const Vec3f> wx) {
   // In the fixed tree the CUDA backend sums in too: the same value whatever the thread scheduling,
   // on both backends (it is reported, and decides nothing).
-  return sum_in_tree(wx.size(), [&](std::size_t k) { return energy_term(wx[k], op.area[k]); });
+  return deterministic_sum(Host{}, wx.size(), kSumTreeGrain,
+                           [&](std::size_t k) { return energy_term(wx[k], op.area[k]); });
 }
 
 Vec3f bilaplacian_row(const Adjacency& adj, const CotanOperator& op, std::span<const Vec3f> x, uint32_t i) {

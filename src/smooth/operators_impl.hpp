@@ -1,12 +1,10 @@
 // meniscus — the per-vertex rows of the smoothing operators (Williams 2008 §4; Desbrun et al. 1999
 // for the cotangent form) over raw CSR arrays, written once for the CPU (operators.cpp, smooth.cpp)
-// and the CUDA backend, in the same order of float operations. Plus the fixed-tree double sum in
-// which both backends report the bending energy.
+// and the CUDA backend, in the same order of float operations.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
-#include <vector>
 
 #include "meniscus/vec.hpp"
 #include "smooth/cotangent_impl.hpp"
@@ -232,46 +230,9 @@ MENISCUS_HD inline float b_stable_damping(const uint32_t* offsets, const Neighbo
 /// One vertex's term of the energy xᵀBx = Σ_k |(W x)_k|² / D_k.
 MENISCUS_HD inline double energy_term(Vec3f wx, float area) { return double(length2(wx)) / double(area); }
 
-// --- the fixed summation tree ------------------------------------------------------------------
-// The energies the stats report (xᵀBx before and after the B sweeps; they decide nothing) come out
-// the same on both backends. The tree is the one of tbb::parallel_deterministic_reduce over
-// blocked_range(0, n, grain): a range larger than the grain splits at begin + (end − begin)/2;
-// a leaf is summed serially from 0; a node is left + right. The CPU sums the leaves in parallel,
-// the GPU one leaf per thread; both then combine the leaf sums with sum_tree_combine.
-
+/// The grain of the fixed tree (deterministic_sum, common/primitives.hpp and cuda/primitives.hpp)
+/// in which both backends sum the energies the stats report (xᵀBx before and after the B sweeps;
+/// they decide nothing): the same value on any thread count and on either backend.
 inline constexpr std::size_t kSumTreeGrain = 4096;
-
-/// The leaf boundaries of the tree over [0, n): leaves [b[k], b[k+1]), in order (b.front() = 0,
-/// b.back() = n; a single leaf [0, 0) for n = 0).
-inline std::vector<std::size_t> sum_tree_leaves(std::size_t n, std::size_t grain = kSumTreeGrain) {
-  std::vector<std::size_t> bounds{0};
-  // Iterative in-order walk of the split tree.
-  std::vector<std::pair<std::size_t, std::size_t>> stack{{0, n}};
-  while (!stack.empty()) {
-    const auto [b, e] = stack.back();
-    stack.pop_back();
-    if (e - b > grain) {
-      const std::size_t mid = b + (e - b) / 2;
-      stack.push_back({mid, e});
-      stack.push_back({b, mid});
-    } else {
-      bounds.push_back(e);
-    }
-  }
-  return bounds;
-}
-
-/// Combines the leaf sums (in leaf order) of the tree over [begin, end) like the reduction does:
-/// `next` is the index of the first leaf of this range, advanced past it.
-MENISCUS_HD inline double sum_tree_combine(std::size_t begin, std::size_t end, std::size_t grain, const double* leaves,
-                                           std::size_t* next) {
-  if (end - begin > grain) {
-    const std::size_t mid = begin + (end - begin) / 2;
-    const double left = sum_tree_combine(begin, mid, grain, leaves, next);
-    const double right = sum_tree_combine(mid, end, grain, leaves, next);
-    return left + right;
-  }
-  return leaves[(*next)++];
-}
 
 }  // namespace meniscus

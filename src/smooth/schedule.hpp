@@ -94,7 +94,7 @@ inline SmoothSchedule smooth_schedule(const Params& p) {
 /// of it and on the particles near them.
 inline int smoothing_rings(const SmoothSchedule& s) { return s.steps_a + 2 * (s.steps_b + s.steps_free); }
 
-/// The schedule, run by both backends over their sweeps `s` (smooth.cpp, cuda/smooth.cu), which
+/// The schedule, run by both backends over their sweeps `s` (smooth.cpp; sweeps_backend.hpp, which the device runs), which
 /// provide: a_begin() / a_sweep(weight) / a_end() (the A sweeps' second iterate held between);
 /// build_operator() (W and D from the current mesh); set_damping(), update_wx() and energy() (xᵀBx
 /// from W x); b_sweep(constrained) (W x is updated after it); damped_vertices() and

@@ -1,6 +1,6 @@
 // meniscus — the per-vertex work of the smoothing sweeps (smooth/schedule.hpp), written once for
 // both backends: each struct is a MENISCUS_HD callable of the vertex index that for_each_index
-// runs on the CPU (smooth.cpp) and on the device (cuda/smooth.cu). The formulas are those of
+// runs on the CPU (smooth.cpp) and in the shared sweeps the device runs (sweeps_backend.hpp). The formulas are those of
 // schedule.hpp and operators_impl.hpp; the backends differ only in how a vertex is projected onto
 // the constraint (Project: the CPU's cached particle lists, the device's grid queries).
 #pragma once

@@ -552,7 +552,8 @@ TEST(CudaStages, KernelFieldsAndYuTurkFramesMatchTheCpu) {
 
 class CudaParityFrame : public ::testing::TestWithParam<std::string> {};
 
-// Every real frame: the extraction bit-identical, then the full default schedule within 1e-4·h.
+// Every real frame: the extraction bit-identical, then the full default schedule within 1e-4·h
+// and its smoothing report bit-identical.
 TEST_P(CudaParityFrame, ExtractionIsBitIdenticalAndTheFullScheduleMatches) {
   MENISCUS_REQUIRE_CUDA_DEVICE();
   if (test::large_for_sanitizers(GetParam())) GTEST_SKIP() << "a large frame: the Release run has it";
@@ -565,7 +566,24 @@ TEST_P(CudaParityFrame, ExtractionIsBitIdenticalAndTheFullScheduleMatches) {
   EXPECT_EQ(raw.max_difference, 0.0);
   p = Params{};
   p.spacing = estimate_spacing(ps);
-  expect_parity(compare_backends(ps, p), p.spacing / 2);
+  const Comparison full = compare_backends(ps, p);
+  expect_parity(full, p.spacing / 2);
+  // The smoothing's report: the energies in deterministic_sum's fixed tree (the device's evaluated
+  // in parallel, in two launches) the same bits on both backends where the CPU smoothed the mesh
+  // in one batch (in several, it adds the batches' sums); the least damping (reduce_index) and
+  // the damped count exactly.
+  const SmoothingStats& a = full.stats_cpu.smoothing;
+  const SmoothingStats& b = full.stats_cuda.smoothing;
+  EXPECT_GT(a.energy_start, 0.0);
+  if (a.batches <= 1) {
+    EXPECT_EQ(a.energy_start, b.energy_start);
+    EXPECT_EQ(a.energy_final, b.energy_final);
+  } else {
+    EXPECT_NEAR(a.energy_start, b.energy_start, 1e-12 * a.energy_start);
+    EXPECT_NEAR(a.energy_final, b.energy_final, 1e-12 * a.energy_final);
+  }
+  EXPECT_EQ(a.relax_b_min, b.relax_b_min);
+  EXPECT_EQ(a.damped_vertices, b.damped_vertices);
 }
 
 // --- locality (README "A local surface"), as tests/e2e/test_locality.cpp on the CPU -------------

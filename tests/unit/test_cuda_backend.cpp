@@ -13,6 +13,7 @@
 #include <random>
 
 #include "extract/marching_impl.hpp"
+#include "common/primitives.hpp"
 #include "meniscus/backend.hpp"
 #include "meniscus/errors.hpp"
 #include "meniscus/io.hpp"
@@ -43,6 +44,8 @@ bool have_real_cuda_device() {
 
 // --- shared code, CPU side ------------------------------------------------------------------------
 
+// deterministic_sum is the tree of tbb::parallel_deterministic_reduce (the reference the device's
+// version, tests/cuda/test_device.cpp, is held to), whatever the threads.
 TEST(SumTree, MatchesTbbDeterministicReduceBitForBit) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-1.0, 1e3);
@@ -57,19 +60,7 @@ TEST(SumTree, MatchesTbbDeterministicReduceBitForBit) {
           return e;
         },
         std::plus<>());
-    const std::vector<std::size_t> leaves = sum_tree_leaves(n);
-    ASSERT_EQ(leaves.front(), 0u);
-    ASSERT_EQ(leaves.back(), n);
-    std::vector<double> sums;
-    for (std::size_t l = 0; l + 1 < leaves.size(); ++l) {
-      ASSERT_LE(leaves[l + 1] - leaves[l], kSumTreeGrain);
-      double s = 0.0;
-      for (std::size_t k = leaves[l]; k < leaves[l + 1]; ++k) s += v[k];
-      sums.push_back(s);
-    }
-    std::size_t next = 0;
-    const double tree = sum_tree_combine(0, n, kSumTreeGrain, sums.data(), &next);
-    EXPECT_EQ(next, sums.size());
+    const double tree = deterministic_sum(Host{}, n, kSumTreeGrain, [&](std::size_t k) { return v[k]; });
     EXPECT_EQ(tree, reference) << "n = " << n;
   }
 }

@@ -8,6 +8,8 @@
 #include <random>
 #include <set>
 
+#include "common/primitives.hpp"
+#include "mesh/adjacency_backend.hpp"
 #include "smooth/adjacency.hpp"
 #include "smooth/cotangent_impl.hpp"
 #include "smooth/operators.hpp"
@@ -72,7 +74,7 @@ TEST(Adjacency, OctahedronRowsAreSortedNeighbours) {
 // neighbours as triangles) and counts them first only when some fan is open: both paths against a
 // brute-force reference — rows the sorted distinct neighbours, triangle lists ascending — on a
 // closed sphere and on the same sphere with every fifth triangle removed (open fans).
-TEST(Adjacency, RowsAndTriangleListsMatchABruteForceReferenceOnClosedAndOpenMeshes) {
+TEST(Adjacency, RowsAndTriangleListsMatchABruteForceReferenceOnClosedAndOpenMeshesOnBothVersions) {
   const TriangleMesh closed = perturbed_sphere(6, 0.01f, 5);
   const TriangleMesh open = with_holes(closed, 5, 2);
   for (const TriangleMesh* m : {&closed, &open}) {
@@ -99,6 +101,20 @@ TEST(Adjacency, RowsAndTriangleListsMatchABruteForceReferenceOnClosedAndOpenMesh
                 tris[i])
           << (m == &closed ? "closed" : "open") << " triangles of " << i;
     }
+    // The shared version (mesh/adjacency_backend.hpp, the device's) run on the host: the same arrays.
+    MeshBuffers<Host> mesh;
+    mesh.vertex_count = nv;
+    mesh.triangle_count = m->triangles.size();
+    mesh.vertices.upload(m->vertices.data(), nv);
+    mesh.triangles.upload(m->triangles.data()->data(), 3 * m->triangles.size());
+    const AdjacencyBuffers<Host> shared = build_adjacency(Host{}, mesh);
+    auto same = [](const HostBuffer<uint32_t>& a, const UninitVector<uint32_t>& b) {
+      return a.size() == b.size() && std::equal(b.begin(), b.end(), a.data());
+    };
+    EXPECT_TRUE(same(shared.offsets, adj.offsets));
+    EXPECT_TRUE(same(shared.neighbors, adj.neighbors));
+    EXPECT_TRUE(same(shared.tri_offsets, adj.tri_offsets));
+    EXPECT_TRUE(same(shared.tri_ids, adj.tri_ids));
   }
 }
 

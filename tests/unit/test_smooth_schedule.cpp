@@ -1,17 +1,27 @@
 // Tests of the smoothing schedule on raw extractions: convergence, the B sweeps' stable damping,
 // Chebyshev's acceleration, the constraint projection after every constrained sweep, and results
-// that depend on neither the thread count, the neighbour lists' form nor the batches.
+// that depend on neither the thread count, the neighbour lists' form nor the batches; the CPU's
+// sweeps against the shared ones the device runs.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <cstdint>
+#include <cstring>
 #include <cmath>
 #include <random>
 
+#include "common/primitives.hpp"
 #include "extract/extract.hpp"
 #include "field/distance_field.hpp"
+#include "grid/grid_buffers.hpp"
+#include "meniscus/io.hpp"
 #include "meniscus/quality.hpp"
+#include "meniscus/reconstruct.hpp"
+#include "mesh/adjacency_backend.hpp"
+#include "mesh/vertex_order.hpp"
 #include "smooth/smooth.hpp"
+#include "smooth/sweeps_backend.hpp"
 #include "support/io_helpers.hpp"
 #include "support/test_support.hpp"
 
@@ -40,6 +50,46 @@ bool all_finite(const std::vector<Vec3f>& x) {
   for (const Vec3f& v : x)
     if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) return false;
   return true;
+}
+
+// The CPU's sweeps (smooth.cpp: 16-bit neighbour lists, corner lists, no stored diagonal, cached
+// particle lists, batches) are a fast path of the shared sweeps the device runs
+// (smooth/sweeps_backend.hpp): on a real frame, the shared ones run with Host{} over the shared
+// adjacency and the CPU's hash grid give the same vertices bit for bit and the same report.
+TEST(SmoothSchedule, TheSharedSweepsOnTheHostGiveTheCpusMeshOnARealFrame) {
+  const ParticleSet particles = read_particles(test::data_file("ply/double_dam_break_frame_26_4732_particles.ply"));
+  const float d = float(estimate_spacing(particles)), h = d / 2, r_outer = d, r_inner = d / 2;
+  const HashGrid grid(particles.positions, r_outer);
+  const SampleLattice lattice{SampleLattice::Kind::a15, 2 * h};
+  const float band = r_outer + 2 * h;
+  TriangleMesh mesh =
+      extract_surface(distance_field(grid, lattice, band, band_blocks(grid, lattice, band)), r_outer, Extractor::tiles)
+          .mesh;
+  reorder_vertices_spatially(mesh, lattice.cell_size);
+  ASSERT_GT(mesh.vertices.size(), 10000u);
+  SmoothOptions o;
+  o.area_floor = 1e-6f * h * h;
+  o.batch_vertices = SIZE_MAX;  // one call on the whole mesh: its energies summed in one tree
+  const ShellConstraint constraint{&grid, r_inner, r_outer};
+  std::vector<Vec3f> x = mesh.vertices;
+  std::vector<Triangle> triangles = mesh.triangles;
+  const SmoothingStats cpu = smooth_surface(x, triangles, &constraint, o);
+
+  MeshBuffers<Host> shared;
+  shared.vertex_count = mesh.vertices.size();
+  shared.triangle_count = mesh.triangles.size();
+  shared.vertices.upload(mesh.vertices.data(), mesh.vertices.size());
+  shared.triangles.upload(mesh.triangles.data()->data(), 3 * mesh.triangles.size());
+  const AdjacencyBuffers<Host> adj = build_adjacency(Host{}, shared);
+  const GridView view{grid.points(),          grid.cell_keys().data(), grid.cell_starts().data(),
+                      uint32_t(grid.cell_keys().size()), uint32_t(grid.size()), grid.cell_size(),
+                      grid.cell_min(),        grid.cell_max()};
+  const SmoothingStats host = smooth_mesh(Host{}, shared, adj, o, ShellProjection<GridView>{view, r_inner, r_outer});
+  EXPECT_EQ(std::memcmp(shared.vertices.data(), x.data(), x.size() * sizeof(Vec3f)), 0);
+  EXPECT_EQ(host.energy_start, cpu.energy_start);
+  EXPECT_EQ(host.energy_final, cpu.energy_final);
+  EXPECT_EQ(host.relax_b_min, cpu.relax_b_min);
+  EXPECT_EQ(host.damped_vertices, cpu.damped_vertices);
 }
 
 TEST(SmoothSchedule, BStepsWithoutAStepsDoNotDiverge) {

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <random>
 
 #include "grid/hash_grid.hpp"
@@ -14,6 +15,9 @@
 #include "mesh/normals.hpp"
 #include "mesh/normals_impl.hpp"
 #include "common/for_each.hpp"
+#include "common/primitives.hpp"
+#include "mesh/adjacency_backend.hpp"
+#include "mesh/normals_backend.hpp"
 
 namespace meniscus {
 namespace {
@@ -119,6 +123,30 @@ TEST(Normals, TheCpuScatterIsTheSharedGatherBitForBit) {
     for (std::size_t v = 0; v < nv; ++v)
       ASSERT_TRUE(gathered[v].x == scattered[v].x && gathered[v].y == scattered[v].y && gathered[v].z == scattered[v].z)
           << v;
+  }
+}
+
+// The shared stages the device runs (mesh/normals_backend.hpp, over the shared adjacency), run with
+// Host{}: the CPU's normals (its scatter) and erosion bit for bit, and the same flipped triangles.
+TEST(Normals, TheSharedStagesOnTheHostGiveTheCpusNormalsAndErosion) {
+  TriangleMesh hub = height_field(200, 300);
+  for (std::size_t t = 0; t < hub.triangles.size(); t += 2000) hub.triangles[t][0] = 0;
+  for (const TriangleMesh& m : {height_field(200, 300), hub}) {
+    MeshBuffers<Host> shared;
+    shared.vertex_count = m.vertices.size();
+    shared.triangle_count = m.triangles.size();
+    shared.vertices.upload(m.vertices.data(), m.vertices.size());
+    shared.triangles.upload(m.triangles.data()->data(), 3 * m.triangles.size());
+    const AdjacencyBuffers<Host> adj = build_adjacency(Host{}, shared);
+    const HostBuffer<Vec3f> n = vertex_normals(Host{}, shared, adj);
+    const std::vector<Vec3f> scattered = vertex_normals(m.vertices, m.triangles);
+    EXPECT_EQ(std::memcmp(n.data(), scattered.data(), scattered.size() * sizeof(Vec3f)), 0);
+    const float e = 0.3f;
+    std::vector<Vec3f> x = m.vertices;
+    const std::size_t flipped_cpu = erode(x, m.triangles, e);
+    const std::size_t flipped_shared = erode(Host{}, shared, adj, e);
+    EXPECT_EQ(flipped_shared, flipped_cpu);
+    EXPECT_EQ(std::memcmp(shared.vertices.data(), x.data(), x.size() * sizeof(Vec3f)), 0);
   }
 }
 

@@ -1,14 +1,20 @@
-// Tests of the spatial renumbering the smoothing runs on (mesh/vertex_order.cpp).
+// Tests of the spatial renumbering the smoothing runs on (mesh/vertex_order.cpp, and the version
+// shared with the device, mesh/vertex_order_backend.hpp).
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
+#include <cstring>
 #include <map>
 #include <tuple>
 
 #include "extract/extract.hpp"
 #include "field/distance_field.hpp"
+#include "common/primitives.hpp"
+#include "meniscus/io.hpp"
+#include "meniscus/reconstruct.hpp"
 #include "mesh/vertex_order.hpp"
+#include "mesh/vertex_order_backend.hpp"
 #include "mesh/vertex_order_impl.hpp"
 #include "support/test_support.hpp"
 
@@ -58,6 +64,33 @@ TEST(VertexOrder, ZOrderedVerticesAndTrianglesByTheirSmallestCornerStably) {
     return std::min({a[0], a[1], a[2]}) < std::min({b[0], b[1], b[2]});
   });
   EXPECT_TRUE(after.triangles == expected);
+}
+
+// The CPU's renumbering (packed keys, no permutation array, the triangles sorted in place) is a
+// fast path of the shared version the device runs: on a real frame's extraction, run with Host{},
+// the two give the same vertices and triangles bit for bit.
+TEST(VertexOrder, TheSharedVersionOnTheHostGivesTheCpusMeshOnARealFrame) {
+  const ParticleSet particles = read_particles(test::data_file("ply/dam_break_frame_23_24389_particles.ply"));
+  const float d = float(estimate_spacing(particles)), h = d / 2, r_outer = d;
+  const HashGrid grid(particles.positions, r_outer);
+  const SampleLattice lattice{SampleLattice::Kind::a15, 2 * h};
+  const float band = r_outer + 2 * h;
+  TriangleMesh cpu =
+      extract_surface(distance_field(grid, lattice, band, band_blocks(grid, lattice, band)), r_outer, Extractor::tiles)
+          .mesh;
+  ASSERT_GT(cpu.vertices.size(), 50000u);
+  MeshBuffers<Host> shared;
+  shared.vertex_count = cpu.vertices.size();
+  shared.triangle_count = cpu.triangles.size();
+  shared.vertices.upload(cpu.vertices.data(), cpu.vertices.size());
+  shared.triangles.upload(cpu.triangles.data()->data(), 3 * cpu.triangles.size());
+  const float cell = lattice.cell_size;
+  reorder_vertices_spatially(cpu, cell);
+  reorder_vertices_spatially(Host{}, shared, cell);
+  ASSERT_EQ(shared.vertex_count, cpu.vertices.size());
+  ASSERT_EQ(shared.triangle_count, cpu.triangles.size());
+  EXPECT_EQ(std::memcmp(shared.vertices.data(), cpu.vertices.data(), cpu.vertices.size() * sizeof(Vec3f)), 0);
+  EXPECT_EQ(std::memcmp(shared.triangles.data(), cpu.triangles.data(), cpu.triangles.size() * sizeof(Triangle)), 0);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // meniscus — vertex normals and erosion on the device: the shared versions (normals_backend.hpp)
 // run with cuda::Device. The normals are gathered per vertex (the CPU scatters them; the same sums).
+#include "cuda/for_each.hpp"
 #include "cuda/stages_cuda.hpp"
 #include "mesh/normals_backend.hpp"
 

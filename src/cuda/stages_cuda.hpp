@@ -4,8 +4,8 @@
 // kernel fields and the per-particle frames (field/band_field.hpp, field/particle_frames.hpp), the
 // velocity weights (transfer/velocity_weights.hpp), the extraction and the voids
 // (extract/extract_backend.hpp, mesh/voids_backend.hpp), the vertex reorder, adjacency and normals
-// (mesh/*_backend.hpp), the sweeps (smooth/sweeps_backend.hpp); transfer.cu holds the attribute
-// transfer. The data are the stage folders' backend templates
+// (mesh/*_backend.hpp), the sweeps (smooth/sweeps_backend.hpp), the attribute transfer
+// (transfer/transfer_backend.hpp). The data are the stage folders' backend templates
 // (GridBuffers, FieldBuffers, MeshBuffers, AdjacencyBuffers) on the Device; their views are plain
 // structs of pointers with MENISCUS_HD accessors, so the shared *_impl.hpp templates run on them.
 #pragma once

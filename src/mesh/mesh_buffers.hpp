@@ -1,6 +1,6 @@
 // meniscus — a triangle mesh and its connectivity as arrays of either backend (BufferOf<B, T>):
 // the form the stages written once over the backend tag pass between them. The CPU's stages
-// work on TriangleMesh and Adjacency (mesh/adjacency.hpp), which hold the same arrays.
+// work on TriangleMesh and Adjacency (smooth/adjacency.hpp), which hold the same arrays.
 #pragma once
 
 #include <cstddef>

@@ -1,5 +1,5 @@
 // meniscus — attribute transfer per vertex (Zhu & Bridson 2005 weights), written once for the CPU
-// (transfer/attribute_transfer.cpp) and the device (cuda/transfer.cu): a vertex takes the
+// (transfer/attribute_transfer.cpp) and the device (transfer_backend.hpp, run by transfer_device.cu): a vertex takes the
 // kernel-weighted mean of the particles' values within the radius, or the nearest particle's
 // value where none is within it.
 #pragma once

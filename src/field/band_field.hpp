@@ -62,6 +62,23 @@ struct BlockKeys {
   }
 };
 
+/// Sample j of a field whose blocks are keyed by block_keys (block j / kBlockSamples, index
+/// j % kBlockSamples in it, cells of n³ a block, spc samples a cell): its block's first cell, its
+/// own cell and its offset in that cell.
+struct BlockSample {
+  Vec3i origin, g;
+  float off[3];
+  MENISCUS_HD BlockSample(uint64_t j, const uint64_t* block_keys, int n, int spc, const SampleOffsets& offsets) {
+    const uint64_t b = j / uint64_t(kBlockSamples);
+    const int idx = int(j % uint64_t(kBlockSamples));
+    const Vec3i bc = unpack_coords(block_keys[b]);
+    origin = Vec3i{bc.x * n, bc.y * n, bc.z * n};
+    const int cell = idx / spc, s = idx % spc;
+    g = Vec3i{origin.x + cell % n, origin.y + (cell / n) % n, origin.z + cell / (n * n)};
+    for (int a = 0; a < 3; ++a) off[a] = offsets.o[s][a];
+  }
+};
+
 /// Sample j (block j / kBlockSamples, index j % kBlockSamples in it) of the distance field: the
 /// distance to the nearest particle whose band box holds the sample (sample_in_reach, the CPU
 /// scatter's test), clamped to the band.
@@ -73,18 +90,14 @@ struct DistanceSamples {
   SampleOffsets offsets;
   float* values;
   MENISCUS_HD void operator()(uint64_t j) const {
-    const uint64_t b = j / uint64_t(kBlockSamples);
-    const int idx = int(j % uint64_t(kBlockSamples));
-    const Vec3i bc = unpack_coords(block_keys[b]);
-    const Vec3i origin{bc.x * n, bc.y * n, bc.z * n};
+    const BlockSample sample(j, block_keys, n, spc, offsets);
+    const Vec3i& origin = sample.origin;
+    const Vec3i& g = sample.g;
+    const float (&off)[3] = sample.off;
     const float inv_a = 1.0f / a;
     const float band2 = band * band;
     const Vec3f box_lo = Vec3f{float(origin.x), float(origin.y), float(origin.z)} * a;
     const Vec3f box_hi = box_lo + Vec3f{1, 1, 1} * (a * float(n));
-    const int cell = idx / spc, s = idx % spc;
-    const Vec3i l{cell % n, (cell / n) % n, cell / (n * n)};
-    const Vec3i g{origin.x + l.x, origin.y + l.y, origin.z + l.z};
-    const float off[3] = {offsets.o[s][0], offsets.o[s][1], offsets.o[s][2]};
     float d2 = band2;
     grid_for_each_in_cells_of_box(grid, box_lo - Vec3f{band, band, band}, box_hi + Vec3f{band, band, band},
                                   [&](uint32_t pi) {
@@ -110,14 +123,8 @@ struct KernelSamples {
   SampleOffsets offsets;
   float* values;
   MENISCUS_HD void operator()(uint64_t j) const {
-    const uint64_t b = j / uint64_t(kBlockSamples);
-    const int idx = int(j % uint64_t(kBlockSamples));
-    const Vec3i bc = unpack_coords(block_keys[b]);
-    const Vec3i origin{bc.x * n, bc.y * n, bc.z * n};
-    const int cell = idx / spc, s = idx % spc;
-    const Vec3i g{origin.x + cell % n, origin.y + (cell / n) % n, origin.z + cell / (n * n)};
-    const float off[3] = {offsets.o[s][0], offsets.o[s][1], offsets.o[s][2]};
-    values[j] = kernel_field_sample(grid, k, support, iso, background, origin, n, a, g, off);
+    const BlockSample p(j, block_keys, n, spc, offsets);
+    values[j] = kernel_field_sample(grid, k, support, iso, background, p.origin, n, a, p.g, p.off);
   }
 };
 

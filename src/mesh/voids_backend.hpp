@@ -24,23 +24,6 @@ namespace meniscus {
 
 namespace voids_backend {
 
-/// A word that other threads write meanwhile (a union-find's parent, a flag many threads set):
-/// a relaxed atomic on the CPU (no data race in the C++ sense), a volatile access on the device.
-MENISCUS_HD inline uint32_t load_relaxed(const uint32_t* p) {
-#if defined(__CUDA_ARCH__)
-  return *static_cast<const volatile uint32_t*>(p);
-#else
-  return std::atomic_ref<uint32_t>(*const_cast<uint32_t*>(p)).load(std::memory_order_relaxed);
-#endif
-}
-MENISCUS_HD inline void store_relaxed(uint32_t* p, uint32_t v) {
-#if defined(__CUDA_ARCH__)
-  *static_cast<volatile uint32_t*>(p) = v;
-#else
-  std::atomic_ref<uint32_t>(*p).store(v, std::memory_order_relaxed);
-#endif
-}
-
 MENISCUS_HD inline uint32_t find_root(uint32_t* parent, uint32_t x) {
   for (uint32_t p = load_relaxed(parent + x); p != x; p = load_relaxed(parent + x)) x = p;  // others hook meanwhile
   return x;

@@ -47,8 +47,9 @@ void print_summary(const FrameFiles& f, const Result& result, const std::optiona
                                        (s.threads_from == "--threads" ? "" : " (" + s.threads_from + ")"),
              human_bytes(double(s.peak_memory_bytes)));
   if (s.genus >= 0)
-    fmt::print(stderr, "  {}, genus {} (holes and tunnels through the surface)\n",
-               count_of(s.components, "piece", "pieces"), s.genus);
+    fmt::print(stderr, "  {}, genus {} (holes and tunnels through the surface){}\n",
+               count_of(s.components, "piece", "pieces"), s.genus,
+               s.closed_handles > 0 ? fmt::format("; {} closed", count_of(s.closed_handles, "handle", "handles")) : "");
   fmt::print(stderr, "{}\n", wrap_text("time per stage: " + stages, kHelpColumns - 2, kHelpColumns, 4).insert(0, "  "));
   fmt::print(stderr, "wrote {}{}{}{}\n", printable(f.output), f.preview.empty() ? "" : ", " + printable(f.preview),
              f.stats.empty() ? "" : ", " + printable(f.stats), f.field.empty() ? "" : ", " + printable(f.field));

@@ -15,6 +15,7 @@ PARAMETERS = {
     'extract': {'type': 'choice', 'default': 'tiles', 'choices': ['tiles', 'cubes', 'tetrahedra'], 'help': 'extractor: tiles (Marching Tiles), cubes, tetrahedra'},
     'keep_voids': {'type': 'flag', 'default': False, 'help': 'keep interior voids smaller than (2 d)³ (removed by default)'},
     'fill_pinholes': {'type': 'flag', 'default': False, 'help': 'bridge the pinholes of thin sheets: a particle added in each hole that a ring of touching particles encloses, up to 1.2 d from its middle to the ring; never joins droplets (docs/method.md)'},
+    'close_handles': {'type': 'flag', 'default': False, 'help': 'close the small handles of the extracted surface that enclose air (pinholes through sheets, tunnels through thin water): each cut and capped before the smoothing; never cuts water, never joins droplets; CPU backend (docs/method.md)'},
     'field': {'type': 'choice', 'default': 'distance', 'choices': ['distance', 'metaball', 'sph', 'zhu-bridson', 'anisotropic'], 'help': 'field method: distance, metaball, sph, zhu-bridson, anisotropic (docs/fields.md)'},
     'iso': {'type': 'number', 'default': 0.0, 'min': 0.0, 'min_open': False, 'help': 'level of the field (metaball/sph/anisotropic: density threshold; zhu-bridson: particle radius)', 'zero': 'derived for the field method'},
     'kernel_radius': {'type': 'number', 'default': 0.0, 'min': 0.0, 'min_open': False, 'unit': 'length', 'help': 'support radius of the field kernels', 'zero': '2 d'},

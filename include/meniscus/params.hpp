@@ -71,6 +71,10 @@ struct Params {
   /// outer balls that a ring of touching particles encloses in a plane, no wider than 1.2 d from
   /// its middle to the ring (docs/method.md "Pinholes"). Never joins what was apart.
   bool fill_pinholes = false;
+  /// Cut the small handles of the extracted surface that enclose air (pinholes through sheets,
+  /// tunnels through thin water) and cap them, before the sweeps (docs/method.md "Handles"). The
+  /// CPU backend's; never cuts water nor joins what was apart.
+  bool close_handles = false;
 
   // --- smoothing schedule (Williams 2008) -------------------------------------------------------
   int steps_a = 20;            ///< constrained graph-Laplacian (A) sweeps

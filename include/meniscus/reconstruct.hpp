@@ -54,6 +54,7 @@ struct Stats {
   std::size_t flipped_triangles = 0;   ///< triangles whose normal reversed during erosion
   std::size_t removed_strays = 0;      ///< components enclosing fewer than min_particles particles
   std::size_t pinhole_bridges = 0;     ///< particles added across pinholes of thin water
+  std::size_t closed_handles = 0;      ///< handles cut and capped (close_handles)
   std::size_t components = 0;          ///< connected pieces of the written surface
   /// Handles of the written surface (holes and tunnels through it: components − χ/2, χ = V − E + F);
   /// −1 when it is not closed (a clip without a cap, or a cap with open edges).

@@ -101,6 +101,9 @@ class DeviceStages final : public StageBackend {
     stats_.removed_blobs = remove_unsupported_blobs(mesh_, grid_, plan_.void_volume, plan_.blob_min_volume);
   }
 
+  /// run_on_device refuses close_handles (a pass of the CPU's) before the device runs.
+  void handles() override { throw InvalidParameter("close_handles: not on the CUDA backend"); }
+
   void reorder() override { reorder_vertices_spatially(mesh_, plan_.lattice.cell_size); }
 
   void adjacency() override {

@@ -93,6 +93,11 @@ const std::vector<Entry>& entries() {
           "bridge the pinholes of thin sheets: a particle added in each hole that a ring of touching particles "
           "encloses, up to 1.2 d from its middle to the ring; never joins droplets (docs/method.md)",
           MENISCUS_MEMBER(fill_pinholes));
+    other("close_handles", ParamType::flag, "geometry",
+          "close the small handles of the extracted surface that enclose air (pinholes through sheets, tunnels "
+          "through thin water): each cut and capped before the smoothing; never cuts water, never joins droplets; "
+          "CPU backend (docs/method.md)",
+          MENISCUS_MEMBER(close_handles));
 
     // --- field method
     other("field", ParamType::choice, "field", "field method: distance, metaball, sph, zhu-bridson, anisotropic (docs/fields.md)",

@@ -12,6 +12,7 @@
 #include "grid/hash_grid.hpp"
 #include "system/memory_scope.hpp"
 #include "mesh/vertex_order.hpp"
+#include "mesh/handles.hpp"
 #include "mesh/voids.hpp"
 #include "pipeline/internal.hpp"
 #include "pipeline/stages.hpp"
@@ -140,6 +141,18 @@ class CpuStages final : public StageBackend {
 
   void blobs() override {
     stats_.removed_blobs = remove_unsupported_blobs(mesh_, sites(), plan_.void_volume, plan_.blob_min_volume);
+  }
+
+  void handles() override {
+    const HashGrid& g = sites();
+    HandleSettings settings;
+    settings.water_distance = plan_.r_outer;
+    stats_.closed_handles = cut_small_handles(mesh_, settings, [&](Vec3f lo, Vec3f hi, const auto& f) {
+      g.for_each_in_cells_of_box(lo, hi, [&](uint32_t i) {
+        f(g.point(i));
+        return true;
+      });
+    }).cut;
   }
 
   /// The extraction numbers vertices in edge-key (row-major) order; the sweeps run several times

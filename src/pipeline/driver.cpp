@@ -41,6 +41,7 @@ void run_stages(const StagePlan& plan, StageBackend& b, TriangleMesh& mesh) {
   b.timed("extract", [&] { b.extract(); });
   if (plan.remove_voids) b.timed("voids", [&] { b.voids(); });
   if (plan.remove_blobs) b.timed("blobs", [&] { b.blobs(); });
+  if (plan.close_handles) b.timed("handles", [&] { b.handles(); });
   if (plan.sweeps) b.timed("reorder", [&] { b.reorder(); });
   b.adjacency();
   b.timed("smooth", [&] { b.smooth(); });
@@ -136,6 +137,12 @@ bool run_on_device(const PipelineInput& in, Result& result, const ProgressFn& pr
   Stats& stats = result.stats;
   const Params& p = in.params;
   if (p.backend == Backend::cpu) return false;
+  if (p.close_handles) {  // a pass of the CPU's (mesh/handles.hpp): auto runs the frame there
+    if (p.backend == Backend::cuda)
+      throw InvalidParameter("close_handles: the handles are closed by a pass of the CPU backend's, which the CUDA "
+                             "backend does not have yet; use --backend cpu or auto");
+    return false;
+  }
   std::string why;
   const std::vector<CudaDeviceInfo> devices = cuda_devices(&why);
   const bool auto_takes_emulated = std::getenv("MENISCUS_EMULATED_DEVICE_FOR_AUTO") != nullptr;
@@ -379,6 +386,9 @@ Result reconstruct_ordered(const ParticleSet& particles, const Params& params, s
     throw InvalidParameter("steps_a, steps_b and steps_free all 0: without a sweep the triangles stay in the "
                            "extraction's block order, which the ranks' pieces cannot be gathered in; run at least "
                            "one sweep, or surface in one process");
+  if (params.close_handles)
+    throw InvalidParameter("close_handles: whether a handle's loop separates the surface is a question about the "
+                           "whole of it, which a rank's slab cannot answer; surface in one process");
   if (params.erode > 0)
     throw InvalidParameter("erode: the erosion moves each vertex along a normal summed in the slab's triangle order, "
                            "which rounds differently from the whole frame's at a few vertices");

@@ -16,6 +16,7 @@
 #include "grid/coincident.hpp"
 #include "grid/key_index.hpp"
 #include "grid/pinholes.hpp"
+#include "mesh/handles.hpp"
 #include "extract/field_band.hpp"
 #include "meniscus/distributed.hpp"
 #include "meniscus/errors.hpp"
@@ -363,7 +364,11 @@ double local_reach(const Params& p) {
   const double simplified = p.decimate > 0 ? decimate_reach(decimate_cell_spacings(p.decimate) * d) : 0;
   // A bridge across a pinhole is a particle like the others, made from the particles near it.
   const double bridges = p.fill_pinholes ? pinhole_reach(pinhole_settings(d, p.r_outer)) : 0;
-  return rings * edge + std::max(field, projection) + simplified + bridges;
+  // A handle's cut reads the mesh within its rings + 2 edges of its seed (the pockets), and
+  // changes it within rings + 1, the valence flips round its caps a few edges further; whether its
+  // loop separates the surface is a question about the whole (mesh/handles.hpp).
+  const double handles = p.close_handles ? (2 * HandleSettings{}.rings + 6) * edge : 0;
+  return rings * edge + std::max(field, projection) + simplified + bridges + handles;
 }
 
 Params resolve_frame_estimates(const ParticleSet& particles, const Params& params) {

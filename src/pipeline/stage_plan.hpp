@@ -48,6 +48,7 @@ struct StagePlan {
   float iso = 0;
   /// `voids`, `blobs`: small closed components the smoothing would crush (mesh/voids.hpp).
   bool remove_voids = false, remove_blobs = false;
+  bool close_handles = false;  ///< `handles`: small handles round air cut and capped (mesh/handles.hpp)
   double void_volume = 0, blob_min_volume = 0;
   /// `reorder`: when any sweep runs (the sweeps are much faster on a Z-ordered mesh); `smooth`.
   bool sweeps = false;
@@ -85,6 +86,7 @@ inline StagePlan plan_stages(const Params& p) {
   s.extractor = p.extract;
   s.iso = s.kernel_field ? 0.0f : float(p.r_outer);
   s.remove_voids = !p.keep_voids;
+  s.close_handles = p.close_handles;
   s.remove_blobs = s.kernel_field;
   s.void_volume = small_component_volume(p.spacing);
   s.blob_min_volume = inner_ball_volume(p.r_inner);

@@ -48,6 +48,7 @@ class StageBackend {
   virtual void extract() = 0;     ///< "extract": marching and weld; the field is freed
   virtual void voids() = 0;       ///< "voids": small closed inward components
   virtual void blobs() = 0;       ///< "blobs": small closed components no particle supports
+  virtual void handles() = 0;     ///< "handles": small handles round air cut and capped, when asked
   virtual void reorder() = 0;     ///< "reorder": vertices in Morton order, when any sweep runs
   virtual void adjacency() {}     ///< before the sweeps (the device: "adjacency")
   virtual void smooth() = 0;      ///< "smooth": the schedule of constrained sweeps

@@ -21,6 +21,7 @@ std::string stats_to_json(const Result& result) {
   j["vertices"] = s.vertices;
   j["triangles"] = s.triangles;
   j["pinhole_bridges"] = s.pinhole_bridges;
+  j["closed_handles"] = s.closed_handles;
   j["components"] = s.components;
   if (s.genus >= 0)
     j["genus"] = s.genus;

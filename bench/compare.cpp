@@ -190,6 +190,13 @@ int main(int argc, char** argv) {
   app.add_option("--write-particles", write_particles,
                  "write the scene's particles (.ply point cloud) and exit: the same data for `meniscus surface`, "
                  "perf or callgrind");
+  std::string write_vdb_mesh;
+  double spacing = 0;
+  app.add_option("--write-vdb-mesh", write_vdb_mesh,
+                 "surface the scene with OpenVDB + the filter passes only, write that mesh and exit: a sequence's "
+                 "frames for `meniscus inspect PATTERN --flicker` (bench/jitter.sh)");
+  app.add_option("--spacing", spacing, "the particle spacing d instead of the estimate (one d for a sequence's frames)")
+      ->check(CLI::PositiveNumber);
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -200,7 +207,7 @@ int main(int argc, char** argv) {
       scene.particles.positions = read_particles(file).positions;  // attributes are not benchmarked
       // Estimated once here, outside the timed runs, so both tools get the same d and
       // meniscus' "parameters" stage does not charge it the estimation OpenVDB is spared.
-      base.spacing = estimate_spacing(scene.particles);
+      base.spacing = spacing > 0 ? spacing : estimate_spacing(scene.particles);
       scene.spacing = float(base.spacing);
     } else {
       scene = make_scene(scene_name, count);
@@ -214,6 +221,17 @@ int main(int argc, char** argv) {
       return 0;
     }
     const Params p = resolve_params(scene.particles, base);
+    if (!write_vdb_mesh.empty()) {
+      VdbOptions only;
+      only.voxel_size = p.voxel_size;
+      only.radius = p.r_outer;
+      only.filter_passes = filter_passes;
+      const VdbResult r = run_openvdb(scene.particles.positions, only);
+      write_mesh(write_vdb_mesh, r.mesh);
+      fmt::print("{}: {} triangles in {:.3f} s (d = {})\n", write_vdb_mesh, r.mesh.triangles.size(), r.total_seconds(),
+                 p.spacing);
+      return 0;
+    }
 
     Params no_smooth = base;
     no_smooth.steps_a = no_smooth.steps_b = no_smooth.steps_free = 0;

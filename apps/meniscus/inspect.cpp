@@ -39,10 +39,21 @@ int run_inspect_sequence(const InspectArgs& a, const FramePattern& pattern) {
     spacing = resolve_params(read_particles(first), in).spacing;
   }
   nlohmann::ordered_json list = nlohmann::ordered_json::array();
-  std::optional<TriangleMesh> previous;
+  // With --flicker a frame's report waits for the next frame, which its jitter needs: the meshes
+  // of the frame before, the frame and the frame after are held (three at a time).
+  std::optional<TriangleMesh> earlier, previous;
   int previous_frame = 0;
   double flicker_sum = 0, flicker_max = 0;
   std::size_t pairs = 0, not_watertight = 0, beyond_cap = 0;
+  std::vector<double> jitters;  // each measured frame's median, in d (or the meshes' units)
+  const double unit = spacing > 0 ? spacing : 1.0;
+  const std::string unit_name = spacing > 0 ? " d" : "";
+  std::optional<std::pair<nlohmann::ordered_json, std::string>> waiting;  // the previous frame's report
+  const auto emit = [&](std::pair<nlohmann::ordered_json, std::string>&& report) {
+    if (!a.json) fmt::print("{}\n", report.second);
+    list.push_back(std::move(report.first));
+  };
+  double cap = INFINITY;
   for (const int frame : frames) {
     const std::string file = pattern.format(frame);
     TriangleMesh mesh = read_mesh(file);
@@ -56,7 +67,7 @@ int run_inspect_sequence(const InspectArgs& a, const FramePattern& pattern) {
                                    mesh.triangles.size(), t.watertight() ? "watertight" : "NOT watertight");
     if (t.watertight()) line += fmt::format(", {} component(s), genus {}", t.components, t.genus());
     if (a.flicker && previous) {
-      double cap = a.flicker_cap == 0 ? INFINITY : a.flicker_cap;
+      cap = a.flicker_cap == 0 ? INFINITY : a.flicker_cap;
       if (a.flicker_cap < 0) cap = spacing > 0 ? kFlickerCapSpacings * spacing : kFlickerCapEdges * mean_edge_length(*previous);
       const SurfaceDistanceReport f = distance_to_surface(mesh.vertices, *previous, cap);
       j["flicker"] = {{"previous_frame", previous_frame}};
@@ -66,23 +77,47 @@ int run_inspect_sequence(const InspectArgs& a, const FramePattern& pattern) {
       if (f.beyond_cap > 0)
         line += fmt::format(" ({} vertices farther than the search's cap {:.4g}, counted at it)", f.beyond_cap, f.cap);
       beyond_cap += f.beyond_cap;
+      // The previous frame's jitter, between the one before it and this one.
+      if (earlier && waiting) {
+        const JitterReport r = surface_jitter(*earlier, *previous, mesh, kJitterPoints, uint32_t(previous_frame), cap);
+        waiting->first["jitter"] = {{"median", r.median / unit}, {"p90", r.p90 / unit}, {"points", r.points},
+                                    {"beyond_cap", r.beyond_cap}, {"unit", spacing > 0 ? "d" : "mesh"}};
+        waiting->second += fmt::format("; jitter median {:.4g}{}, p90 {:.4g}{}", r.median / unit, unit_name,
+                                       r.p90 / unit, unit_name);
+        if (r.points > 0) jitters.push_back(r.median / unit);
+      }
     }
-    if (!a.json) fmt::print("{}\n", line);
-    list.push_back(std::move(j));
-    if (a.flicker) previous = std::move(mesh), previous_frame = frame;
+    if (waiting) emit(std::move(*waiting));
+    waiting = std::pair{std::move(j), std::move(line)};
+    if (a.flicker) earlier = std::move(previous), previous = std::move(mesh), previous_frame = frame;
   }
+  if (waiting) emit(std::move(*waiting));
   nlohmann::ordered_json summary = {{"frames", frames.size()}, {"not_watertight", not_watertight}};
-  if (a.flicker)
+  double jitter_median = 0, jitter_max = 0;
+  if (!jitters.empty()) {
+    std::vector<double> sorted = jitters;
+    std::sort(sorted.begin(), sorted.end());
+    jitter_median = sorted[(sorted.size() - 1) / 2];
+    jitter_max = sorted.back();
+  }
+  if (a.flicker) {
     summary["flicker"] = {{"pairs", pairs}, {"mean", pairs ? flicker_sum / double(pairs) : 0.0}, {"max", flicker_max},
                           {"beyond_cap", beyond_cap}};
+    summary["jitter"] = {{"frames", jitters.size()}, {"median", jitter_median}, {"max", jitter_max},
+                         {"unit", spacing > 0 ? "d" : "mesh"}};
+  }
   if (a.json) {
     fmt::print("{}\n", nlohmann::ordered_json{{"sequence", a.mesh}, {"summary", summary}, {"frames", list}}.dump(2));
     return 0;
   }
   fmt::print("{} frames, {} not watertight", frames.size(), not_watertight);
-  if (a.flicker)
+  if (a.flicker) {
     fmt::print("; flicker mean {:.4g} over {} frame pairs, max {:.4g}{}", pairs ? flicker_sum / double(pairs) : 0.0, pairs,
                flicker_max, beyond_cap ? fmt::format(" ({} vertices at the search's cap)", beyond_cap) : std::string());
+    if (!jitters.empty())
+      fmt::print("; jitter (the flicker without the motion) median {:.4g}{} over {} frames, largest {:.4g}{}", jitter_median,
+                 unit_name, jitters.size(), jitter_max, unit_name);
+  }
   fmt::print("\n");
   return 0;
 }

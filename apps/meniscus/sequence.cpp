@@ -31,7 +31,7 @@ namespace {
 /// a mesh is kept only until both of its pairs are settled. Not thread-safe: callers hold a lock.
 class SequenceFlicker {
  public:
-  explicit SequenceFlicker(std::size_t frames) : status_(frames, kPending), flicker_(frames) {}
+  explicit SequenceFlicker(std::size_t frames) : status_(frames, kPending), flicker_(frames), jitter_(frames) {}
   /// Records frame i's result (mesh == nullptr: it failed) and its spacing; returns the frames
   /// whose flicker became known. A frame's flicker searches kFlickerCapSpacings of its spacing.
   std::vector<std::size_t> settle(std::size_t i, TriangleMesh* mesh, double spacing = 0) {
@@ -45,11 +45,23 @@ class SequenceFlicker {
       flicker_[k]->seconds = seconds_since(t0);
       known.push_back(k);
     }
-    for (std::size_t k : {i == 0 ? i : i - 1, i, i + 1}) {  // drop meshes no pair needs any more
+    // A frame's jitter (surface_jitter): its mesh between the frames before and after it.
+    for (std::size_t k = i == 0 ? 0 : i - 1; k <= i + 1; ++k) {
+      if (k == 0 || k + 1 >= status_.size() || jitter_[k]) continue;
+      if (status_[k - 1] != kDone || status_[k] != kDone || status_[k + 1] != kDone) continue;
+      const auto t0 = std::chrono::steady_clock::now();
+      jitter_[k] = Jitter{surface_jitter(meshes_.at(k - 1), meshes_.at(k), meshes_.at(k + 1), kJitterPoints,
+                                         uint32_t(k), caps_.at(k)),
+                          0};
+      jitter_[k]->seconds = seconds_since(t0);
+    }
+    // Drop the meshes no pair or triple needs any more: those of frames whose two neighbours on
+    // each side are settled.
+    for (std::size_t k = i < 2 ? 0 : i - 2; k <= i + 2; ++k) {
       if (k >= status_.size() || !meshes_.count(k)) continue;
-      const bool before = k == 0 || status_[k - 1] != kPending;
-      const bool after = k + 1 == status_.size() || status_[k + 1] != kPending;
-      if (before && after) meshes_.erase(k), caps_.erase(k);
+      bool settled = true;
+      for (std::size_t n = k < 2 ? 0 : k - 2; n <= k + 2 && n < status_.size(); ++n) settled = settled && status_[n] != kPending;
+      if (settled) meshes_.erase(k), caps_.erase(k);
     }
     return known;
   }
@@ -58,6 +70,11 @@ class SequenceFlicker {
     double seconds;
   };
   const std::optional<Measured>& flicker(std::size_t k) const { return flicker_[k]; }
+  struct Jitter {
+    JitterReport report;
+    double seconds;
+  };
+  const std::optional<Jitter>& jitter(std::size_t k) const { return jitter_[k]; }
 
  private:
   enum Status : char { kPending, kDone, kFailed };
@@ -65,6 +82,7 @@ class SequenceFlicker {
   std::map<std::size_t, TriangleMesh> meshes_;
   std::map<std::size_t, double> caps_;
   std::vector<std::optional<Measured>> flicker_;
+  std::vector<std::optional<Jitter>> jitter_;
 };
 
 /// Adds the flicker against the previous frame to a frame's stats file.
@@ -261,6 +279,22 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
                                                                    "cap of {} d and count at it)",
                                                                    beyond_cap, vertices, kFlickerCapSpacings),
                                      flicker_seconds),
+                         kHelpColumns, kHelpColumns, 2));
+  }
+  std::vector<double> jitters;
+  double jitter_seconds = 0;
+  for (std::size_t k = 0; k < frames.size(); ++k)
+    if (const auto& j = flicker.jitter(k); j && j->report.points > 0)
+      jitters.push_back(j->report.median), jitter_seconds += j->seconds;
+  if (!a.quiet && !jitters.empty()) {
+    std::sort(jitters.begin(), jitters.end());
+    const double d = a.params.spacing;
+    fmt::print(stderr, "{}\n",
+               wrap_text(fmt::format("jitter (the change without the motion: |s₋ + s₊| / 2 from each frame to the "
+                                     "frames either side): median {:.3g} d over {} frames, largest {:.3g} d; measured "
+                                     "in {:.3f} s",
+                                     jitters[(jitters.size() - 1) / 2] / d, jitters.size(), jitters.back() / d,
+                                     jitter_seconds),
                          kHelpColumns, kHelpColumns, 2));
   }
   if (!a.quiet || !failed.empty())

@@ -96,6 +96,24 @@ SurfaceDistanceReport distance_to_surface(std::span<const Vec3f> points, const T
 /// measured on (bench/compare.cpp, tests/e2e/test_decimate.cpp).
 std::vector<Vec3f> random_surface_points(const TriangleMesh& mesh, std::size_t count, uint32_t seed);
 
+/// The jitter of a frame of a sequence: the flicker without the motion. From points on frame t's
+/// surface, s₋ and s₊ are the signed distances (negative inside) to frames t−1 and t+1; a surface
+/// moving at a constant velocity v gives s₋ + s₊ = 0 to first order (a curvature 1/R leaves
+/// |v_tangential|²/R), noise e_t gives 2e_t − e_{t−1} − e_{t+1}. The
+/// jitter is |s₋ + s₊| / 2 over the points (in the meshes' units).
+struct JitterReport {
+  double median = 0, p90 = 0;
+  std::size_t points = 0;      ///< points measured (those with both surfaces within the cap)
+  std::size_t beyond_cap = 0;  ///< points left out: a surface farther than the cap (a droplet that
+                               ///< appears, a cut: topology, not jitter)
+};
+/// The jitter of `current` between `previous` and `next`, on `count` random_surface_points of it
+/// (seed `seed`), each surface searched up to `cap`. The sign: the side of the closest triangle.
+JitterReport surface_jitter(const TriangleMesh& previous, const TriangleMesh& current, const TriangleMesh& next,
+                            std::size_t count, uint32_t seed, double cap);
+/// The points surface_jitter measures a frame on (its median to about 1.5 %).
+inline constexpr std::size_t kJitterPoints = 10000;
+
 /// The flicker's search distance in particle spacings: a vertex farther than this from the
 /// previous frame's surface is not flicker (a fraction of d) but a cut, an emitter or a frame
 /// out of order; it counts at the cap, and the search costs at most the triangles within it.

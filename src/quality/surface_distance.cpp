@@ -132,4 +132,46 @@ SurfaceDistanceReport distance_to_surface(std::span<const Vec3f> points, const T
   return report;
 }
 
+JitterReport surface_jitter(const TriangleMesh& previous, const TriangleMesh& current, const TriangleMesh& next,
+                            std::size_t count, uint32_t seed, double cap) {
+  JitterReport report;
+  if (previous.triangles.empty() || current.triangles.empty() || next.triangles.empty()) return report;
+  const std::vector<Vec3f> points = random_surface_points(current, count, seed);
+  const float reach = cap < double(INFINITY) ? float(cap) : INFINITY;
+  const TriangleBvh before(previous.vertices, previous.triangles), after(next.vertices, next.triangles);
+  // Per point, |s₋ + s₊| / 2, or NaN when either surface lies beyond the cap.
+  std::vector<float> jitter(points.size());
+  for_each_index(points.size(), 256, [&](std::size_t i) {
+    const TriangleBvh::Closest b = before.closest(points[i], reach), a = after.closest(points[i], reach);
+    if (b.triangle == UINT32_MAX || a.triangle == UINT32_MAX) {
+      jitter[i] = NAN;
+      return;
+    }
+    // The sign from the closest triangle's plane (outward normals): exact where the closest point
+    // lies inside the triangle, and at an edge or corner off only for points farther from the
+    // surface than its bend, which the median does not see.
+    const auto side = [&](const TriangleMesh& m, uint32_t t, float distance) {
+      const Triangle& c = m.triangles[t];
+      const Vec3f a0 = m.vertices[c[0]];
+      const Vec3f n = cross(m.vertices[c[1]] - a0, m.vertices[c[2]] - a0);
+      return dot(points[i] - a0, n) < 0 ? -distance : distance;
+    };
+    const float s_before = side(previous, b.triangle, b.distance), s_after = side(next, a.triangle, a.distance);
+    jitter[i] = std::fabs(s_before + s_after) / 2;
+  });
+  const auto end = std::remove_if(jitter.begin(), jitter.end(), [](float j) { return std::isnan(j); });
+  report.beyond_cap = std::size_t(jitter.end() - end);
+  jitter.erase(end, jitter.end());
+  report.points = jitter.size();
+  if (jitter.empty()) return report;
+  const auto at = [&](double q) {
+    const auto k = jitter.begin() + std::ptrdiff_t(double(jitter.size() - 1) * q);
+    std::nth_element(jitter.begin(), k, jitter.end());
+    return double(*k);
+  };
+  report.median = at(0.5);
+  report.p90 = at(0.9);
+  return report;
+}
+
 }  // namespace meniscus

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Calm water that shimmers: the jitter (docs/cli.md "Jitter": the flicker without the motion) of a
-# particle sequence surfaced by meniscus and by OpenVDB r = d, voxel d/2 + 4 mean-curvature passes,
-# each frame side by side, one d for every frame of both (meniscus' estimate on the first frame).
+# Calm water that shimmers: the jitter (docs/cli.md "Sequences": the flicker without the motion)
+# of a particle sequence surfaced by meniscus and by OpenVDB r = d, voxel d/2 + 4 mean-curvature
+# passes, each frame side by side, one d for every frame of both (meniscus' estimate on frame 1).
 #
 #   cmake --preset release -DMENISCUS_BUILD_BENCH=ON && cmake --build build/release
 #   bash bench/jitter.sh build/release DIR [PATTERN] [-- extra surface options]

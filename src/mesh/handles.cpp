@@ -71,62 +71,103 @@ struct Annulus {
   std::vector<uint32_t> loops[2];
 };
 
-/// A thread's marks over the vertices and triangles, reset by stamps.
+/// A small open-addressing table from vertex or triangle numbers to the entries of one seed's
+/// rings (a few hundred), emptied per seed: a thread's scratch stays a few kB whatever the mesh.
+class SmallIndex {
+ public:
+  static constexpr std::size_t kCapacity = 4096;  ///< at most half of it used
+  SmallIndex() : keys_(kCapacity, kNone), values_(kCapacity) {}
+  uint32_t find(uint32_t key) const {
+    for (std::size_t i = hash(key);; i = (i + 1) & (kCapacity - 1)) {
+      if (keys_[i] == key) return values_[i];
+      if (keys_[i] == kNone) return kNone;
+    }
+  }
+  /// Inserts a new key; false when the table is half full (the seed is then given up).
+  bool insert(uint32_t key, uint32_t value) {
+    if (used_.size() >= kCapacity / 2) return false;
+    std::size_t i = hash(key);
+    while (keys_[i] != kNone) i = (i + 1) & (kCapacity - 1);
+    keys_[i] = key, values_[i] = value;
+    used_.push_back(uint32_t(i));
+    return true;
+  }
+  void clear() {
+    for (const uint32_t i : used_) keys_[i] = kNone;
+    used_.clear();
+  }
+
+ private:
+  static std::size_t hash(uint32_t key) { return std::size_t(key * 2654435761u) & (kCapacity - 1); }
+  std::vector<uint32_t> keys_, values_, used_;
+};
+
+/// A thread's scratch for one seed's rings: the vertices reached (their entries: ring, neighbours'
+/// farthest ring, boundary marks) and the region's triangles.
 struct Scratch {
-  std::vector<int32_t> hop;  ///< rings from the seed, −1 unvisited (reset after each seed)
-  std::vector<uint32_t> visited;
-  std::vector<uint32_t> in_region;  ///< per triangle, the stamp of the region that holds it
-  std::vector<uint32_t> used;       ///< per vertex, the stamp of the region that uses it
-  std::vector<uint32_t> next_mark;  ///< per vertex, the stamp of the region whose boundary leaves it
-  std::vector<uint32_t> next;       ///< that boundary edge's end
-  std::vector<uint32_t> walked;     ///< per vertex, the stamp of the region whose loop walk passed it
+  SmallIndex vertex;                ///< vertex → its entry in `visited`
+  SmallIndex triangle;              ///< triangle in the region → 0
+  std::vector<uint32_t> visited;    ///< the vertices reached, ring by ring
+  std::vector<int32_t> hop;         ///< per entry, its ring
+  std::vector<int32_t> farthest;    ///< per entry, its neighbours' farthest ring
+  std::vector<uint32_t> next_mark;  ///< per entry, the walk whose boundary leaves it
+  std::vector<uint32_t> next;       ///< that boundary edge's end (a vertex)
+  std::vector<uint32_t> walked;     ///< per entry, the walk whose loop passed it
+  std::vector<uint8_t> used;        ///< per entry, whether a region triangle uses it
   std::vector<uint32_t> region;
-  std::vector<uint32_t> ring;      ///< where each ring starts in `visited`
-  std::vector<int32_t> farthest;   ///< per entry of `visited`, its neighbours' farthest ring
-  std::vector<uint32_t> slot;      ///< per vertex, its entry in `visited` (valid while visited)
-  uint32_t stamp = 0, walk = 0;
+  std::vector<uint32_t> ring;       ///< where each ring starts in `visited`
+  uint32_t walk = 0;
 };
 
 /// Grows the rings round `seed`; true with `out` when ring k ≤ hops first stops being a disk by
 /// wrapping into a clean annulus (no vertex twice on its boundary).
 bool wrapped_ring(const TriangleMesh& m, const Stars& g, uint32_t seed, int hops, Scratch& s, Annulus& out) {
-  if (s.hop.empty()) {
-    s.hop.assign(m.vertices.size(), -1);
-    s.in_region.assign(m.triangles.size(), 0);
-    s.used.assign(m.vertices.size(), 0);
-    s.next_mark.assign(m.vertices.size(), 0);
-    s.next.assign(m.vertices.size(), 0);
-    s.walked.assign(m.vertices.size(), 0);
-    s.slot.assign(m.vertices.size(), 0);
-  }
-  // The vertices within hops + 1 edges, ring by ring (ring r is visited[ring[r], ring[r + 1])).
+  s.vertex.clear();
+  s.triangle.clear();
   s.visited.clear();
-  s.hop[seed] = 0;
-  s.visited.push_back(seed);
+  s.hop.clear();
+  // The vertices within hops + 1 edges, ring by ring (ring r is visited[ring[r], ring[r + 1])).
+  const auto reach = [&](uint32_t v, int32_t h) {
+    if (!s.vertex.insert(v, uint32_t(s.visited.size()))) return false;
+    s.visited.push_back(v), s.hop.push_back(h);
+    return true;
+  };
+  if (!reach(seed, 0)) return false;
   s.ring.assign(1, 0);
   for (std::size_t i = 0; i < s.visited.size(); ++i) {
     const uint32_t v = s.visited[i];
-    if (std::size_t(s.hop[v]) == s.ring.size()) s.ring.push_back(uint32_t(i));
-    if (s.hop[v] > hops) continue;
+    if (std::size_t(s.hop[i]) == s.ring.size()) s.ring.push_back(uint32_t(i));
+    if (s.hop[i] > hops) continue;
     for (uint32_t j = g.first[v]; j < g.first[v + 1]; ++j)
       for (const uint32_t w : m.triangles[g.star[j] / 3])
-        if (s.hop[w] < 0) s.hop[w] = s.hop[v] + 1, s.visited.push_back(w);
+        if (s.vertex.find(w) == kNone && !reach(w, s.hop[i] + 1)) return false;  // too many: give it up
   }
   while (s.ring.size() < std::size_t(hops) + 3) s.ring.push_back(uint32_t(s.visited.size()));
   s.ring.push_back(uint32_t(s.visited.size()));
-  // Per vertex of ring hops + 1 or nearer, its neighbours' farthest ring (hops + 2: beyond).
-  s.farthest.resize(s.visited.size());
-  for (std::size_t i = 0; i < s.ring[hops + 2]; ++i) {
+  const std::size_t n = s.visited.size();
+  const auto hop_of = [&](uint32_t v) {
+    const uint32_t e = s.vertex.find(v);
+    return e == kNone ? -1 : s.hop[e];
+  };
+  // Per vertex reached, its neighbours' farthest ring (hops + 2: beyond).
+  s.farthest.assign(n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
     const uint32_t v = s.visited[i];
     int32_t far = 0;
     for (uint32_t j = g.first[v]; j < g.first[v + 1]; ++j)
-      for (const uint32_t w : m.triangles[g.star[j] / 3]) far = std::max(far, s.hop[w] < 0 ? hops + 2 : s.hop[w]);
+      for (const uint32_t w : m.triangles[g.star[j] / 3]) {
+        const int32_t h = hop_of(w);
+        far = std::max(far, h < 0 ? hops + 2 : h);
+      }
     s.farthest[i] = far;
-    s.slot[v] = uint32_t(i);
   }
+  s.used.assign(n, 0);
+  s.next_mark.assign(n, 0);
+  s.next.assign(n, 0);
+  s.walked.assign(n, 0);
+  const auto in_region = [&](uint32_t t) { return t != kNone && s.triangle.find(t) != kNone; };
   // The region grows ring by ring; its Euler characteristic V − E + F (E = (3F + boundary) / 2)
   // stays 1 while it is a disk.
-  const uint32_t stamp = ++s.stamp;
   s.region.clear();
   std::ptrdiff_t vertices = 0, boundary = 0;
   bool found = false;
@@ -134,25 +175,31 @@ bool wrapped_ring(const TriangleMesh& m, const Stars& g, uint32_t seed, int hops
     // Inside ring k: the vertices within k edges, and those one further whose every neighbour is
     // within k (a pocket the rings would close one step later).
     const auto inside = [&](uint32_t v) {
-      return s.hop[v] >= 0 && (s.hop[v] <= k || (s.hop[v] == k + 1 && s.farthest[s.slot[v]] <= k));
+      const uint32_t e = s.vertex.find(v);
+      return e != kNone && (s.hop[e] <= k || (s.hop[e] == k + 1 && s.farthest[e] <= k));
     };
-    for (std::size_t i = s.ring[k]; i < s.ring[k + 2]; ++i) {
+    bool full = false;
+    for (std::size_t i = s.ring[k]; i < s.ring[k + 2] && !full; ++i) {
       const uint32_t v = s.visited[i];
-      if (s.hop[v] == k + 1 && s.farthest[i] > k) continue;
+      if (s.hop[i] == k + 1 && s.farthest[i] > k) continue;
       for (uint32_t j = g.first[v]; j < g.first[v + 1]; ++j) {
         const uint32_t t = g.star[j] / 3;
-        if (s.in_region[t] == stamp) continue;
+        if (in_region(t)) continue;
         const Triangle& tri = m.triangles[t];
         if (!inside(tri[0]) || !inside(tri[1]) || !inside(tri[2])) continue;
-        s.in_region[t] = stamp;
+        if (!s.triangle.insert(t, 0)) {
+          full = true;
+          break;
+        }
         s.region.push_back(t);
         for (int c = 0; c < 3; ++c) {
-          if (s.used[tri[c]] != stamp) s.used[tri[c]] = stamp, ++vertices;
-          const uint32_t o = across(m, g, t, c);
-          boundary += o != kNone && s.in_region[o] == stamp ? -1 : 1;
+          const uint32_t e = s.vertex.find(tri[c]);
+          if (!s.used[e]) s.used[e] = 1, ++vertices;
+          boundary += in_region(across(m, g, t, c)) ? -1 : 1;
         }
       }
     }
+    if (full) break;
     const std::ptrdiff_t faces = std::ptrdiff_t(s.region.size());
     if (vertices - (3 * faces + boundary) / 2 + faces == 1) continue;  // still a disk
     // Not a disk: is it an annulus with two clean loops?
@@ -162,25 +209,26 @@ bool wrapped_ring(const TriangleMesh& m, const Stars& g, uint32_t seed, int hops
     for (const uint32_t t : s.region)
       for (int c = 0; c < 3; ++c) {
         const uint32_t o = across(m, g, t, c);
-        if (o != kNone && s.in_region[o] == stamp) continue;
-        const uint32_t a = m.triangles[t][c];
+        if (in_region(o)) continue;
+        const uint32_t e = s.vertex.find(m.triangles[t][c]);
         open_edge = open_edge || o == kNone;
-        clean = clean && o != kNone && s.next_mark[a] != walk;  // an open mesh, or a vertex twice
-        s.next_mark[a] = walk;
-        s.next[a] = m.triangles[t][(c + 1) % 3];
-        starts.push_back(a);
+        clean = clean && o != kNone && s.next_mark[e] != walk;  // an open mesh, or a vertex twice
+        s.next_mark[e] = walk;
+        s.next[e] = m.triangles[t][(c + 1) % 3];
+        starts.push_back(e);
       }
     std::vector<std::vector<uint32_t>> loops;
     for (std::size_t i = 0; clean && i < starts.size() && loops.size() <= 2; ++i) {
       if (s.walked[starts[i]] == walk) continue;
       std::vector<uint32_t> loop;
-      for (uint32_t v = starts[i]; s.walked[v] != walk; v = s.next[v]) {
-        s.walked[v] = walk;
-        loop.push_back(v);
+      for (uint32_t e = starts[i]; s.walked[e] != walk; e = s.vertex.find(s.next[e])) {
+        s.walked[e] = walk;
+        loop.push_back(s.visited[e]);
       }
       loops.push_back(std::move(loop));
     }
-    if (clean && loops.size() == 2 && vertices - (3 * faces + boundary) / 2 + faces == 0) {
+    if (clean && loops.size() == 2 && loops[0].size() >= 3 && loops[1].size() >= 3 &&
+        vertices - (3 * faces + boundary) / 2 + faces == 0) {
       out.seed = seed;
       out.rings = k;
       out.triangles = s.region;
@@ -194,7 +242,6 @@ bool wrapped_ring(const TriangleMesh& m, const Stars& g, uint32_t seed, int hops
     // later; anything else (an open edge, a closed piece, more loops) ends the growth.
     if (clean || open_edge) break;
   }
-  for (const uint32_t v : s.visited) s.hop[v] = -1;
   return found;
 }
 
@@ -390,25 +437,18 @@ HandleCuts cut_small_handles(TriangleMesh& m, const HandleSettings& settings, co
   const std::size_t V = m.vertices.size(), T = m.triangles.size();
   const Stars g = stars_of(m);
   // Seeds: the vertices where the surface is a saddle sharp enough for a narrow tube.
-  std::vector<float> angle(3 * T);
-  for_each_index(T, 4096, [&](std::size_t t) {
-    const Triangle& x = m.triangles[t];
-    const Vec3f p[3] = {m.vertices[x[0]], m.vertices[x[1]], m.vertices[x[2]]};
-    const Vec3f e[3] = {p[1] - p[0], p[2] - p[1], p[0] - p[2]};  // e[c]: corner c to c + 1
-    const float l2[3] = {length2(e[0]), length2(e[1]), length2(e[2])};
-    for (int c = 0; c < 3; ++c) {
-      // The angle at corner c, between e[c] and −e[c + 2].
-      const float q = l2[c] * l2[(c + 2) % 3];
-      angle[3 * t + c] = q > 0 ? fast_acos(-dot(e[c], e[(c + 2) % 3]) / std::sqrt(q)) : 0.0f;
-    }
-  });
   std::vector<uint8_t> seed(V, 0);
-  for_each_index(V, 4096, [&](std::size_t v) {
+  for_each_index(V, 1024, [&](std::size_t v) {
     float sum = 0;
-    for (uint32_t j = g.first[v]; j < g.first[v + 1]; ++j) sum += angle[g.star[j]];
+    for (uint32_t j = g.first[v]; j < g.first[v + 1]; ++j) {
+      const Triangle& t = m.triangles[g.star[j] / 3];
+      const uint32_t c = g.star[j] % 3;
+      const Vec3f p = m.vertices[v], a = m.vertices[t[(c + 1) % 3]] - p, b = m.vertices[t[(c + 2) % 3]] - p;
+      const float q = length2(a) * length2(b);
+      sum += q > 0 ? fast_acos(dot(a, b) / std::sqrt(q)) : 0.0f;
+    }
     seed[v] = g.first[v] != g.first[v + 1] && 2 * std::numbers::pi_v<float> - sum < -settings.saddle_defect;
   });
-  angle = {};
   result.seeds = std::size_t(std::count(seed.begin(), seed.end(), 1));
   // The annuli round the seeds, in any order (sorted below). Every seed's own: which are cut
   // depends only on the annuli found near them (a vertex's number is its position's rank), not

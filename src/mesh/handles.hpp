@@ -13,7 +13,7 @@ namespace meniscus {
 struct HandleSettings {
   /// The most rings of triangles grown round a seed: a handle is cut where ring k ≤ rings first
   /// wraps round it. Larger rings find wider tubes, whose caps the sweeps may pull through the
-  /// particles (bench/RESULTS.md "Thin water").
+  /// particles (bench/RESULTS.md#thin-water-genus-holes-and-tunnels-against-openvdb).
   int rings = 3;
   /// Seeds: vertices whose angle defect 2π − Σ angles is under −saddle_defect (radians), a saddle
   /// as sharp as a narrow tube's wall (which holds −4π of curvature in a small area).

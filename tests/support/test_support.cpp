@@ -55,6 +55,17 @@ ParticleSet wide_splash(std::size_t count, float d) {
   return ps;
 }
 
+ParticleSet thin_sheet(int n, float gap, float d, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> jitter(-0.2f * d, 0.2f * d);
+  std::vector<float> at(std::size_t(n), 0.0f);
+  for (int i = 1; i < n; ++i) at[std::size_t(i)] = at[std::size_t(i - 1)] + (i % 4 == 0 ? gap : d);
+  ParticleSet ps;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) ps.positions.push_back({at[std::size_t(i)] + jitter(rng), at[std::size_t(j)] + jitter(rng), 0});
+  return ps;
+}
+
 ParticleSet lattice_ball(float R, float d, Vec3f center) {
   ParticleSet ps;
   const int n = int(R / d) + 1;

@@ -35,6 +35,10 @@ ParticleSet lattice_block(int nx, int ny, int nz, float d, float jitter = 0, uin
 
 /// Particles of a lattice of spacing d that lie inside a ball of radius R around `center`.
 ParticleSet lattice_ball(float R, float d, Vec3f center = {0, 0, 0});
+/// A sheet one particle thick in the plane z = 0: n × n particles, in-plane spacing d with every
+/// fourth gap widened to `gap`, each coordinate in the plane jittered by ±0.2 d (thin water: the
+/// pinholes' and the handles' tests).
+ParticleSet thin_sheet(int n, float gap, float d, uint32_t seed = 7);
 
 /// A wide, shallow splash of about `count` particles, as shots are: a pool 16 : 4 : 1 (x long)
 /// on a jittered lattice with 80 % of the particles, droplets of 1-30 particles over it up to

@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstdio>
 #include <numbers>
-#include <random>
 
 #include "meniscus/distributed.hpp"
 #include "meniscus/errors.hpp"
@@ -23,18 +22,7 @@ namespace {
 
 constexpr float kD = 0.1f;
 
-// A sheet one particle thick in the plane z = 0 (as in test_pinholes.cpp): n × n particles,
-// in-plane spacing d with every fourth gap widened to `gap`, each coordinate jittered by ±0.2 d.
-ParticleSet thin_sheet(int n, float gap, uint32_t seed = 7) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> jitter(-0.2f * kD, 0.2f * kD);
-  std::vector<float> at(std::size_t(n), 0.0f);
-  for (int i = 1; i < n; ++i) at[std::size_t(i)] = at[std::size_t(i - 1)] + (i % 4 == 0 ? gap : kD);
-  ParticleSet ps;
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) ps.positions.push_back({at[std::size_t(i)] + jitter(rng), at[std::size_t(j)] + jitter(rng), 0});
-  return ps;
-}
+ParticleSet thin_sheet(int n, float gap, uint32_t seed = 7) { return test::thin_sheet(n, gap, kD, seed); }
 
 Params params(bool close) {
   Params p;

@@ -326,20 +326,24 @@ void fair(const TriangleMesh& m, Plug& plug) {
 }
 
 /// The triangles round the vertices near the caps, made on first use: the mesh's stars less the
-/// dropped triangles, plus the caps' (appended from `first_cap` on).
+/// cut triangles and the slots the caps took, plus the caps'.
 class LocalStars {
  public:
-  LocalStars(const TriangleMesh& m, const Stars& g, const std::vector<uint8_t>& drop, std::size_t first_cap)
-      : g_(g), drop_(drop) {
-    for (std::size_t t = first_cap; t < m.triangles.size(); ++t)
-      for (const uint32_t v : m.triangles[t]) caps_[v].push_back(uint32_t(t));
+  LocalStars(const TriangleMesh& m, const Stars& g, const std::vector<uint8_t>& drop, const std::vector<uint32_t>& caps)
+      : g_(g), drop_(drop), cap_(drop.size(), 0) {
+    for (const uint32_t t : caps) {
+      cap_[t] = 1;
+      for (const uint32_t v : m.triangles[t]) caps_[v].push_back(t);
+    }
   }
   std::vector<uint32_t>& operator[](uint32_t v) {
     auto [it, made] = local_.try_emplace(v);
     if (made) {
-      if (v + 1 < g_.first.size())
-        for (uint32_t j = g_.first[v]; j < g_.first[v + 1]; ++j)
-          if (!drop_[g_.star[j] / 3]) it->second.push_back(g_.star[j] / 3);
+      if (v + 1 < g_.first.size())  // the mesh's triangles round v that are neither cut nor a cap's now
+        for (uint32_t j = g_.first[v]; j < g_.first[v + 1]; ++j) {
+          const uint32_t t = g_.star[j] / 3;
+          if (!drop_[t] && !cap_[t]) it->second.push_back(t);
+        }
       if (const auto c = caps_.find(v); c != caps_.end()) it->second.insert(it->second.end(), c->second.begin(), c->second.end());
     }
     return it->second;
@@ -348,6 +352,7 @@ class LocalStars {
  private:
   const Stars& g_;
   const std::vector<uint8_t>& drop_;
+  std::vector<uint8_t> cap_;  ///< per triangle slot, whether a cap's triangle holds it now
   std::unordered_map<uint32_t, std::vector<uint32_t>> caps_, local_;
 };
 
@@ -535,21 +540,34 @@ HandleCuts cut_small_handles(TriangleMesh& m, const HandleSettings& settings, co
   // An annulus is cut only when the mesh without all the taken ones still joins its two loops (by
   // shared vertices: the loops are clean and the annuli apart, so no vertex pinches): its loop
   // does not separate the surface, nor do all of them together.
-  std::vector<uint32_t> root;
-  {
-    std::vector<Triangle> rest;
-    rest.reserve(T);
-    for (std::size_t t = 0; t < T; ++t)
-      if (!drop[t]) rest.push_back(m.triangles[t]);
-    root = component_roots(V, rest);
-  }
+  // (The taken annuli's triangles are stood in for by a corner repeated, which joins nothing,
+  // for the count, and then put back: no copy of the mesh's triangles.)
+  std::vector<Triangle> kept_aside;
+  for (std::size_t t = 0; t < T; ++t)
+    if (drop[t]) kept_aside.push_back(m.triangles[t]), m.triangles[t] = {m.triangles[t][0], m.triangles[t][0], m.triangles[t][0]};
+  const std::vector<uint32_t> root = component_roots(V, m.triangles);
+  for (std::size_t t = 0, k = 0; t < T; ++t)
+    if (drop[t]) m.triangles[t] = kept_aside[k++];
   std::fill(drop.begin(), drop.end(), 0);
-  std::vector<uint32_t> touched, origin;
-  std::vector<uint8_t> inner(V, 0);  // the cut annuli's vertices off their loops
+  std::vector<uint32_t> touched, origin, caps;  // caps: the slots the caps' triangles took
+  std::vector<uint8_t> inner(V, 0);             // the cut annuli's vertices off their loops
+  std::size_t added = 0;
+  for (std::size_t k = 0; k < taken.size(); ++k)
+    if (root[taken[k]->loops[0][0]] == root[taken[k]->loops[1][0]]) added += plugs[k].added.size();
+  m.vertices.reserve(V + added);
   for (std::size_t k = 0; k < taken.size(); ++k) {
     const Annulus& a = *taken[k];
     if (root[a.loops[0][0]] != root[a.loops[1][0]]) continue;
-    // The cut: the annulus out, its caps in (their new vertices numbered on from the mesh's).
+    // The cut: the annulus out, its caps in (their new vertices numbered on from the mesh's). The
+    // caps take the annulus' slots (more than they need, as a rule), so the triangles' array does
+    // not grow: on a large frame a second copy of it would be the pass's largest cost in memory.
+    std::vector<uint32_t> slots(a.triangles.rbegin(), a.triangles.rend());
+    for (const uint32_t t : a.triangles) {
+      drop[t] = 1;
+      for (const uint32_t v : m.triangles[t]) inner[v] = 1;
+    }
+    for (const auto& loop : a.loops)
+      for (const uint32_t v : loop) inner[v] = 0, touched.push_back(v);
     const Plug& plug = plugs[k];
     const uint32_t base = uint32_t(m.vertices.size());
     m.vertices.insert(m.vertices.end(), plug.added.begin(), plug.added.end());
@@ -557,20 +575,22 @@ HandleCuts cut_small_handles(TriangleMesh& m, const HandleSettings& settings, co
     for (Triangle t : plug.caps) {
       for (uint32_t& v : t)
         if (v >= V) v = base + (v - uint32_t(V));
-      m.triangles.push_back(t);
+      if (slots.empty()) {
+        caps.push_back(uint32_t(m.triangles.size()));
+        m.triangles.push_back(t);
+        drop.push_back(0);
+      } else {
+        caps.push_back(slots.back());
+        m.triangles[slots.back()] = t;
+        drop[slots.back()] = 0;
+        slots.pop_back();
+      }
     }
-    for (const uint32_t t : a.triangles) {
-      drop[t] = 1;
-      for (const uint32_t v : m.triangles[t]) inner[v] = 1;
-    }
-    for (const auto& loop : a.loops)
-      for (const uint32_t v : loop) inner[v] = 0, touched.push_back(v);
     ++result.cut;
   }
   if (result.cut == 0) return result;
-  drop.resize(m.triangles.size(), 0);
   for (std::size_t v = V; v < m.vertices.size(); ++v) touched.push_back(uint32_t(v));
-  LocalStars stars(m, g, drop, T);
+  LocalStars stars(m, g, drop, caps);
   raise_low_valences(m, stars, touched);
   // The mesh without the annuli and their inner vertices, in order; the caps' vertices take their
   // loop's first vertex's attributes.

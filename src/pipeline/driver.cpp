@@ -137,12 +137,9 @@ bool run_on_device(const PipelineInput& in, Result& result, const ProgressFn& pr
   Stats& stats = result.stats;
   const Params& p = in.params;
   if (p.backend == Backend::cpu) return false;
-  if (p.close_handles) {  // a pass of the CPU's (mesh/handles.hpp): auto runs the frame there
-    if (p.backend == Backend::cuda)
-      throw InvalidParameter("close_handles: the handles are closed by a pass of the CPU backend's, which the CUDA "
-                             "backend does not have yet; use --backend cpu or auto");
-    return false;
-  }
+  if (p.close_handles && p.backend == Backend::cuda)  // a pass of the CPU's (mesh/handles.hpp)
+    throw InvalidParameter("close_handles: the handles are closed by a pass of the CPU backend's, which the CUDA "
+                           "backend does not have yet; use --backend cpu or auto");
   std::string why;
   const std::vector<CudaDeviceInfo> devices = cuda_devices(&why);
   const bool auto_takes_emulated = std::getenv("MENISCUS_EMULATED_DEVICE_FOR_AUTO") != nullptr;
@@ -156,6 +153,11 @@ bool run_on_device(const PipelineInput& in, Result& result, const ProgressFn& pr
     throw ResourceError(fmt::format("--backend cuda: no CUDA backend available ({}); use --backend cpu or auto", why));
   // No device: auto runs on the CPU without a word each run (`meniscus info` says why there is none).
   if (!have_device) return false;
+  if (p.close_handles) {  // auto: the frame runs where the pass is, and says so
+    stats.warnings.push_back("close_handles: the handles are closed by a pass of the CPU backend's; this frame ran on "
+                             "the CPU, not the CUDA device");
+    return false;
+  }
   const std::size_t stages_before = stats.stages.size();
   try {
     run_stages(in.plan, *cuda::make_device_stages(in, stats, progress), result.mesh);

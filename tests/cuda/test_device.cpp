@@ -354,6 +354,31 @@ TEST(CudaDispatch, CudaUsesTheDeviceAutoOnlyARealOne) {
   }
 }
 
+// --close-handles is a pass of the CPU's (mesh/handles.hpp): cuda refuses it by name, auto with
+// a device runs the frame on the CPU and says so in a warning.
+TEST(CudaDispatch, CloseHandlesRunsOnTheCpuAndSaysSo) {
+  MENISCUS_REQUIRE_CUDA_DEVICE();
+  const ParticleSet ps = test::lattice_block(6, 6, 6, 0.1f);
+  Params p;
+  p.spacing = 0.1;
+  p.close_handles = true;
+  p.backend = Backend::cuda;
+  EXPECT_THROW(reconstruct(ps, p), InvalidParameter);
+  p.backend = Backend::automatic;
+#if defined(MENISCUS_CUDA_EMULATION)
+  setenv("MENISCUS_EMULATED_DEVICE_FOR_AUTO", "1", 1);
+#endif
+  const Result r = reconstruct(ps, p);
+#if defined(MENISCUS_CUDA_EMULATION)
+  unsetenv("MENISCUS_EMULATED_DEVICE_FOR_AUTO");
+#endif
+  EXPECT_EQ(r.stats.backend, "cpu");
+  EXPECT_TRUE(r.stats.device_calls.empty());
+  EXPECT_TRUE(std::any_of(r.stats.warnings.begin(), r.stats.warnings.end(), [](const std::string& w) {
+    return w.find("close_handles") != std::string::npos && w.find("ran on the CPU") != std::string::npos;
+  }));
+}
+
 // --stats records what each stage asked of the device; the counts are those of this run.
 TEST(CudaStats, EveryStageReportsItsLaunchesCopiesAndWaits) {
   MENISCUS_REQUIRE_CUDA_DEVICE();

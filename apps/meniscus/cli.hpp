@@ -53,6 +53,13 @@ void print_warning(std::string_view text);
 /// A flicker report as JSON: the distances, the cap (null when none) and what the measure cost.
 nlohmann::ordered_json flicker_json(const SurfaceDistanceReport& f);
 
+/// A sequence's jitter from its frames' medians (surface_jitter): the median of them and the largest.
+struct SequenceJitter {
+  std::size_t frames = 0;
+  double median = 0, max = 0;
+};
+SequenceJitter sequence_jitter(std::vector<double> medians);
+
 /// The byte limit of a run's reads and pictures: --max-memory, or 90 % of what is granted.
 double memory_limit_bytes(double max_memory_gb);
 

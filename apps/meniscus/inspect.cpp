@@ -53,7 +53,6 @@ int run_inspect_sequence(const InspectArgs& a, const FramePattern& pattern) {
     if (!a.json) fmt::print("{}\n", report.second);
     list.push_back(std::move(report.first));
   };
-  double cap = INFINITY;
   for (const int frame : frames) {
     const std::string file = pattern.format(frame);
     TriangleMesh mesh = read_mesh(file);
@@ -67,7 +66,7 @@ int run_inspect_sequence(const InspectArgs& a, const FramePattern& pattern) {
                                    mesh.triangles.size(), t.watertight() ? "watertight" : "NOT watertight");
     if (t.watertight()) line += fmt::format(", {} component(s), genus {}", t.components, t.genus());
     if (a.flicker && previous) {
-      cap = a.flicker_cap == 0 ? INFINITY : a.flicker_cap;
+      double cap = a.flicker_cap == 0 ? INFINITY : a.flicker_cap;
       if (a.flicker_cap < 0) cap = spacing > 0 ? kFlickerCapSpacings * spacing : kFlickerCapEdges * mean_edge_length(*previous);
       const SurfaceDistanceReport f = distance_to_surface(mesh.vertices, *previous, cap);
       j["flicker"] = {{"previous_frame", previous_frame}};
@@ -93,17 +92,11 @@ int run_inspect_sequence(const InspectArgs& a, const FramePattern& pattern) {
   }
   if (waiting) emit(std::move(*waiting));
   nlohmann::ordered_json summary = {{"frames", frames.size()}, {"not_watertight", not_watertight}};
-  double jitter_median = 0, jitter_max = 0;
-  if (!jitters.empty()) {
-    std::vector<double> sorted = jitters;
-    std::sort(sorted.begin(), sorted.end());
-    jitter_median = sorted[(sorted.size() - 1) / 2];
-    jitter_max = sorted.back();
-  }
+  const SequenceJitter jitter = sequence_jitter(std::move(jitters));
   if (a.flicker) {
     summary["flicker"] = {{"pairs", pairs}, {"mean", pairs ? flicker_sum / double(pairs) : 0.0}, {"max", flicker_max},
                           {"beyond_cap", beyond_cap}};
-    summary["jitter"] = {{"frames", jitters.size()}, {"median", jitter_median}, {"max", jitter_max},
+    summary["jitter"] = {{"frames", jitter.frames}, {"median", jitter.median}, {"max", jitter.max},
                          {"unit", spacing > 0 ? "d" : "mesh"}};
   }
   if (a.json) {
@@ -114,9 +107,9 @@ int run_inspect_sequence(const InspectArgs& a, const FramePattern& pattern) {
   if (a.flicker) {
     fmt::print("; flicker mean {:.4g} over {} frame pairs, max {:.4g}{}", pairs ? flicker_sum / double(pairs) : 0.0, pairs,
                flicker_max, beyond_cap ? fmt::format(" ({} vertices at the search's cap)", beyond_cap) : std::string());
-    if (!jitters.empty())
-      fmt::print("; jitter (the flicker without the motion) median {:.4g}{} over {} frames, largest {:.4g}{}", jitter_median,
-                 unit_name, jitters.size(), jitter_max, unit_name);
+    if (jitter.frames > 0)
+      fmt::print("; jitter (the flicker without the motion) median {:.4g}{} over {} frames, largest {:.4g}{}", jitter.median,
+                 unit_name, jitter.frames, jitter.max, unit_name);
   }
   fmt::print("\n");
   return 0;

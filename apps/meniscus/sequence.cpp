@@ -103,6 +103,16 @@ nlohmann::ordered_json flicker_json(const SurfaceDistanceReport& f) {
   return j;
 }
 
+SequenceJitter sequence_jitter(std::vector<double> medians) {
+  SequenceJitter j;
+  j.frames = medians.size();
+  if (medians.empty()) return j;
+  std::sort(medians.begin(), medians.end());
+  j.median = medians[(medians.size() - 1) / 2];
+  j.max = medians.back();
+  return j;
+}
+
 int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
   SurfaceArgs a = given;
   const auto out = parse_frame_pattern(a.output);
@@ -287,14 +297,13 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
     if (const auto& j = flicker.jitter(k); j && j->report.points > 0)
       jitters.push_back(j->report.median), jitter_seconds += j->seconds;
   if (!a.quiet && !jitters.empty()) {
-    std::sort(jitters.begin(), jitters.end());
+    const SequenceJitter j = sequence_jitter(std::move(jitters));
     const double d = a.params.spacing;
     fmt::print(stderr, "{}\n",
                wrap_text(fmt::format("jitter (the change without the motion: |s₋ + s₊| / 2 from each frame to the "
                                      "frames either side): median {:.3g} d over {} frames, largest {:.3g} d; measured "
                                      "in {:.3f} s",
-                                     jitters[(jitters.size() - 1) / 2] / d, jitters.size(), jitters.back() / d,
-                                     jitter_seconds),
+                                     j.median / d, j.frames, j.max / d, jitter_seconds),
                          kHelpColumns, kHelpColumns, 2));
   }
   if (!a.quiet || !failed.empty())

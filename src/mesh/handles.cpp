@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <functional>
 #include <mutex>
 #include <numbers>
 #include <numeric>
@@ -14,7 +13,9 @@
 
 #include "common/for_each.hpp"
 #include "common/primitives.hpp"
+#include "grid/hash_grid.hpp"
 #include "mesh/components.hpp"
+#include "mesh/ray_parity_impl.hpp"
 
 namespace meniscus {
 
@@ -406,39 +407,12 @@ void raise_low_valences(TriangleMesh& m, LocalStars& stars, const std::vector<ui
   }
 }
 
-/// Whether `p` lies inside the closed surface `triangles`: an odd number of crossings on a ray
-/// from it (in a direction no lattice plane holds).
-template <class At>
-bool inside_closed(const At& x, const std::vector<Triangle>& triangles, Vec3f p) {
-  const double dir[3] = {0.5773, 0.6259, 0.5243};
-  int crossings = 0;
-  for (const Triangle& t : triangles) {
-    double a[3], e1[3], e2[3];
-    for (int k = 0; k < 3; ++k) {
-      a[k] = double(x(t[0])[k]);
-      e1[k] = double(x(t[1])[k]) - a[k];
-      e2[k] = double(x(t[2])[k]) - a[k];
-    }
-    const double h[3] = {dir[1] * e2[2] - dir[2] * e2[1], dir[2] * e2[0] - dir[0] * e2[2], dir[0] * e2[1] - dir[1] * e2[0]};
-    const double det = e1[0] * h[0] + e1[1] * h[1] + e1[2] * h[2];
-    if (det == 0) continue;
-    const double s[3] = {double(p.x) - a[0], double(p.y) - a[1], double(p.z) - a[2]};
-    const double u = (s[0] * h[0] + s[1] * h[1] + s[2] * h[2]) / det;
-    if (u < 0 || u > 1) continue;
-    const double q[3] = {s[1] * e1[2] - s[2] * e1[1], s[2] * e1[0] - s[0] * e1[2], s[0] * e1[1] - s[1] * e1[0]};
-    const double v = (dir[0] * q[0] + dir[1] * q[1] + dir[2] * q[2]) / det;
-    if (v < 0 || u + v > 1) continue;
-    if ((e2[0] * q[0] + e2[1] * q[1] + e2[2] * q[2]) / det > 0) ++crossings;
-  }
-  return crossings % 2 == 1;
-}
-
 }  // namespace
 
-HandleCuts cut_small_handles(TriangleMesh& m, const HandleSettings& settings, const ParticlesInBox& particles_in_box) {
-  HandleCuts result;
+std::size_t cut_small_handles(TriangleMesh& m, const HandleSettings& settings, const HashGrid& particles) {
+  std::size_t cut = 0;
   // (Corners are numbered in 32 bits: a mesh of more than 1.4 billion triangles is left as it is.)
-  if (m.triangles.empty() || settings.rings < 1 || m.triangles.size() >= (std::size_t(1) << 32) / 3) return result;
+  if (m.triangles.empty() || settings.rings < 1 || m.triangles.size() >= (std::size_t(1) << 32) / 3) return 0;
   const std::size_t V = m.vertices.size(), T = m.triangles.size();
   const Stars g = stars_of(m);
   // Seeds: the vertices where the surface is a saddle sharp enough for a narrow tube.
@@ -454,7 +428,6 @@ HandleCuts cut_small_handles(TriangleMesh& m, const HandleSettings& settings, co
     }
     seed[v] = g.first[v] != g.first[v + 1] && 2 * std::numbers::pi_v<float> - sum < -settings.saddle_defect;
   });
-  result.seeds = std::size_t(std::count(seed.begin(), seed.end(), 1));
   // The annuli round the seeds, in any order (sorted below). Every seed's own: which are cut
   // depends only on the annuli found near them (a vertex's number is its position's rank), not
   // on the threads nor on the mesh far away.
@@ -471,8 +444,7 @@ HandleCuts cut_small_handles(TriangleMesh& m, const HandleSettings& settings, co
     const std::lock_guard<std::mutex> lock(appending);
     for (Annulus& x : mine) found.push_back(std::move(x));
   });
-  result.found = found.size();
-  if (found.empty()) return result;
+  if (found.empty()) return 0;
   // The smallest first, then the lower seed: each that shares no vertex with one taken before,
   // round air, and whose plug holds no particle, is taken.
   std::sort(found.begin(), found.end(), [](const Annulus& a, const Annulus& b) {
@@ -498,15 +470,12 @@ HandleCuts cut_small_handles(TriangleMesh& m, const HandleSettings& settings, co
       }
       const Vec3f middle = (c[0] + c[1]) * 0.5f, axis = c[1] - c[0];
       const float w = settings.water_distance;
-      float nearest2 = w * w;
-      Vec3f nearest = middle;
-      particles_in_box(middle - Vec3f{w, w, w}, middle + Vec3f{w, w, w}, [&](Vec3f p) {
-        const float d2 = length2(p - middle);
-        if (d2 <= nearest2) nearest2 = d2, nearest = p;
-      });
-      const Vec3f to = nearest - middle;
-      const float along = dot(to, axis);
-      if (nearest2 < w * w && along * along >= 0.5f * length2(to) * length2(axis)) continue;  // within 45° of it
+      const HashGrid::Nearest nearest = particles.nearest(middle, w);
+      if (nearest.index != kNotFound && nearest.dist2 < w * w) {
+        const Vec3f to = particles.point(nearest.index) - middle;
+        const float along = dot(to, axis);
+        if (along * along >= 0.5f * length2(to) * length2(axis)) continue;  // within 45° of it
+      }
     }
     // The plug: the annulus and its two caps, a closed surface round what the cut turns from one
     // side to the other. It may hold air only (a pinhole's, a tunnel's): a particle in it would
@@ -516,19 +485,17 @@ HandleCuts cut_small_handles(TriangleMesh& m, const HandleSettings& settings, co
     plug.origin = a.loops[0][0];
     for (const auto& loop : a.loops) cap(loop, m, plug);
     fair(m, plug);
-    std::vector<Triangle> closed(a.triangles.size());
-    for (std::size_t i = 0; i < closed.size(); ++i) closed[i] = m.triangles[a.triangles[i]];
-    closed.insert(closed.end(), plug.caps.begin(), plug.caps.end());
-    const auto x = [&](uint32_t v) { return at(m, plug, v); };
-    Vec3f lo = x(closed[0][0]), hi = lo;
-    for (const Triangle& t : closed)
-      for (const uint32_t v : t) lo = min(lo, x(v)), hi = max(hi, x(v));
-    bool holds_water = false;
-    particles_in_box(lo, hi, [&](Vec3f p) {
-      holds_water = holds_water || (p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y &&
-                                    p.z <= hi.z && inside_closed(x, closed, p));
-    });
-    if (holds_water) continue;
+    // The blob test's ray parity (ray_parity_impl.hpp) over the plug's triangles, each with its
+    // own three corners.
+    std::vector<Vec3f> corners;
+    for (const uint32_t t : a.triangles)
+      for (const uint32_t v : m.triangles[t]) corners.push_back(m.vertices[v]);
+    for (const Triangle& t : plug.caps)
+      for (const uint32_t v : t) corners.push_back(at(m, plug, v));
+    std::vector<uint32_t> order(corners.size()), ids(corners.size() / 3);
+    std::iota(order.begin(), order.end(), 0u);
+    std::iota(ids.begin(), ids.end(), 0u);
+    if (encloses_a_point(particles, order.data(), ids.data(), uint32_t(ids.size()), corners.data())) continue;
     for (const uint32_t t : a.triangles) {
       drop[t] = 1;
       for (const uint32_t v : m.triangles[t]) claimed[v] = 1;
@@ -536,7 +503,7 @@ HandleCuts cut_small_handles(TriangleMesh& m, const HandleSettings& settings, co
     taken.push_back(&a);
     plugs.push_back(std::move(plug));
   }
-  if (taken.empty()) return result;
+  if (taken.empty()) return 0;
   // An annulus is cut only when the mesh without all the taken ones still joins its two loops (by
   // shared vertices: the loops are clean and the annuli apart, so no vertex pinches): its loop
   // does not separate the surface, nor do all of them together.
@@ -586,9 +553,9 @@ HandleCuts cut_small_handles(TriangleMesh& m, const HandleSettings& settings, co
         slots.pop_back();
       }
     }
-    ++result.cut;
+    ++cut;
   }
-  if (result.cut == 0) return result;
+  if (cut == 0) return 0;
   for (std::size_t v = V; v < m.vertices.size(); ++v) touched.push_back(uint32_t(v));
   LocalStars stars(m, g, drop, caps);
   raise_low_valences(m, stars, touched);
@@ -618,7 +585,7 @@ HandleCuts cut_small_handles(TriangleMesh& m, const HandleSettings& settings, co
   }
   m.vertices.resize(next);
   for (Attribute& attribute : m.attributes) attribute.values.resize(std::size_t(attribute.components) * next);
-  return result;
+  return cut;
 }
 
 }  // namespace meniscus

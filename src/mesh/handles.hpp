@@ -4,7 +4,6 @@
 #pragma once
 
 #include <cstddef>
-#include <functional>
 
 #include "meniscus/mesh.hpp"
 
@@ -24,14 +23,7 @@ struct HandleSettings {
   float water_distance = 0;
 };
 
-struct HandleCuts {
-  std::size_t seeds = 0;  ///< vertices whose rings were grown
-  std::size_t found = 0;  ///< balls round a seed that wrap a tube (a candidate each)
-  std::size_t cut = 0;    ///< handles removed (genus −1 each)
-};
-
-/// The particle centres in a box (those of its cells, or more).
-using ParticlesInBox = std::function<void(Vec3f lo, Vec3f hi, const std::function<void(Vec3f)>& f)>;
+class HashGrid;
 
 /// Cuts the small handles round air of a closed, manifold, oriented mesh. Round each seed the rings
 /// of triangles within k edges grow (k = 1 … rings, each a disk while nothing wraps); where ring k
@@ -48,7 +40,7 @@ using ParticlesInBox = std::function<void(Vec3f lo, Vec3f hi, const std::functio
 /// where they were (edge flips round the caps). Annuli that share no vertex are cut together,
 /// smallest first (ties by the lower seed), so the result is the same for any thread count. New
 /// vertices are appended, the annuli's inner vertices removed (the others keep their order); the
-/// attributes follow, a cap's vertices taking their loop's first vertex's.
-HandleCuts cut_small_handles(TriangleMesh& mesh, const HandleSettings& settings, const ParticlesInBox& particles_in_box);
+/// attributes follow, a cap's vertices taking their loop's first vertex's. Returns the handles cut.
+std::size_t cut_small_handles(TriangleMesh& mesh, const HandleSettings& settings, const HashGrid& particles);
 
 }  // namespace meniscus

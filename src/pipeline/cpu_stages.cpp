@@ -144,15 +144,9 @@ class CpuStages final : public StageBackend {
   }
 
   void handles() override {
-    const HashGrid& g = sites();
     HandleSettings settings;
     settings.water_distance = plan_.r_outer;
-    stats_.closed_handles = cut_small_handles(mesh_, settings, [&](Vec3f lo, Vec3f hi, const auto& f) {
-      g.for_each_in_cells_of_box(lo, hi, [&](uint32_t i) {
-        f(g.point(i));
-        return true;
-      });
-    }).cut;
+    stats_.closed_handles = cut_small_handles(mesh_, settings, sites());
   }
 
   /// The extraction numbers vertices in edge-key (row-major) order; the sweeps run several times

@@ -18,7 +18,11 @@
 #include <pybind11/stl.h>
 
 #include <fmt/format.h>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <memory>
+#include <span>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -94,12 +98,40 @@ std::string shape_string(const py::array& a) {
 
 using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
 
-/// `object` as a NumPy array as it is (a view of a NumPy array or a memory map, no copy), which
-/// must hold numbers: a float or integer dtype. Booleans, strings, objects and complex numbers
-/// are refused (TypeError naming the argument) rather than converted.
-py::array numeric_array(const py::handle& object, const std::string& what) {
+/// DLPack's device types (dlpack.h): the host's memory, and the CUDA device's kinds.
+constexpr int kDLCPU = 1, kDLCUDAHost = 3;
+
+/// `object` as a NumPy array over its own memory, without a copy, whatever protocol it offers: a
+/// NumPy array or memory map, the buffer protocol (memoryview, array.array), __array_interface__,
+/// or __dlpack__ (PyTorch, JAX, CuPy … tensors on the host). An array on a CUDA device (its
+/// __dlpack_device__ says so, or it offers only __cuda_array_interface__) is refused by name
+/// (TypeError): the frame's checks and estimates run on the host.
+py::array host_array(const py::handle& object, const std::string& what) {
+  if (py::isinstance<py::array>(object)) return py::reinterpret_borrow<py::array>(object);
+  if (py::hasattr(object, "__dlpack_device__") && py::hasattr(object, "__dlpack__")) {
+    const py::tuple device = object.attr("__dlpack_device__")();
+    const int type = device[0].cast<int>();
+    if (type != kDLCPU && type != kDLCUDAHost)
+      throw py::type_error(fmt::format("{} lives on a device (DLPack device type {}, id {}), not in the host's memory: "
+                                       "meniscus reads particles on the host (copy them there first, e.g. "
+                                       "tensor.cpu() or array.numpy())",
+                                       what, type, std::string(py::str(device[1]))));
+    return py::module_::import("numpy").attr("from_dlpack")(object);
+  }
+  if (py::hasattr(object, "__cuda_array_interface__") && !py::hasattr(object, "__array_interface__"))
+    throw py::type_error(fmt::format("{} lives on a CUDA device (__cuda_array_interface__): meniscus reads particles "
+                                     "on the host (copy them there first, e.g. array.numpy() or cupy.asnumpy(array))",
+                                     what));
   const py::array a = py::array::ensure(object);
   if (!a) throw py::type_error(fmt::format("{} must be an array of numbers", what));
+  return a;
+}
+
+/// `object` as a NumPy array as it is (host_array: no copy), which must hold numbers: a float or
+/// integer dtype. Booleans, strings, objects and complex numbers are refused (TypeError naming the
+/// argument) rather than converted.
+py::array numeric_array(const py::handle& object, const std::string& what) {
+  const py::array a = host_array(object, what);
   const char kind = a.dtype().kind();
   if (kind != 'f' && kind != 'i' && kind != 'u')
     throw py::type_error(fmt::format("{} must hold numbers (float or integer), got dtype {}", what,
@@ -117,51 +149,152 @@ void check_input_bytes(double bytes, const meniscus::Grant& limit, const std::st
                                               limit.source));
 }
 
-/// An N × 3 array-like as xyz triples (float64 and integer inputs are converted to float32),
-/// refused before any copy when the copies would pass `limit`.
-std::vector<meniscus::Vec3f> vec3_from_python(const py::handle& object, const char* what, const meniscus::Grant& limit) {
-  const py::array original = numeric_array(object, what);
-  if (original.ndim() != 2 || original.shape(1) != 3)
-    throw py::value_error(fmt::format("{} must be an N×3 array, got shape {}", what, shape_string(original)));
-  // The float32 conversion (when the array is not one already) and the triples.
-  check_input_bytes(double(original.shape(0)) * 3 * (sizeof(float) + sizeof(float)), limit, what);
-  const FloatArray a = FloatArray::ensure(original);
-  if (!a) throw py::type_error(fmt::format("{} must be an N×3 array of numbers", what));
-  std::vector<meniscus::Vec3f> out(std::size_t(a.shape(0)));
-  const float* xyz = a.data();
-  for (std::size_t i = 0; i < out.size(); ++i) out[i] = {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
+/// Whether `a` (float32) lies in memory as the library reads it: rows of `columns` floats one
+/// after another (a one-row array whatever its stride), at a float's alignment.
+bool float_rows_in_place(const py::array& a, py::ssize_t columns) {
+  if (a.dtype().kind() != 'f' || a.itemsize() != sizeof(float)) return false;
+  if (!a.dtype().attr("isnative").cast<bool>()) return false;  // a big-endian view
+  if (reinterpret_cast<std::uintptr_t>(a.data()) % alignof(float) != 0) return false;
+  const bool rows = a.shape(0) <= 1 || a.strides(0) == py::ssize_t(sizeof(float)) * columns;
+  const bool cols = a.ndim() == 1 || a.shape(1) <= 1 || a.strides(1) == py::ssize_t(sizeof(float));
+  return rows && cols;
+}
+
+/// The input arrays of a call as the library reads them (ParticlesView): in place where their
+/// layout is the library's (float32 rows, C order), converted once into these buffers otherwise
+/// (float64, other strides, integers). A Reconstructor keeps its buffers from call to call, so a
+/// converted input of the same size or smaller allocates nothing.
+struct InputArrays {
+  std::vector<meniscus::Vec3f> positions;  // converted positions (empty: read in place)
+  std::vector<std::vector<float>> attribute_values;  // converted attributes, one buffer each
+  std::vector<std::string> names;
+  std::size_t bytes_read_in_place = 0, bytes_copied = 0;
+};
+
+/// Reads the element at `row`, `col` of a 2-D array of float32/float64/integer as a float.
+template <class T>
+float element(const char* base, py::ssize_t row_stride, py::ssize_t col_stride, std::size_t row, std::size_t col) {
+  T v;
+  std::memcpy(&v, base + py::ssize_t(row) * row_stride + py::ssize_t(col) * col_stride, sizeof(T));
+  return float(v);
+}
+
+/// `a` (n × k, or n when k == 1 and a is 1-D) converted into `out` as n·k floats, row-major,
+/// whatever its strides; float32, float64 and native integers directly, anything else through
+/// NumPy's conversion.
+void convert_rows(const py::array& a, std::size_t k, float* out) {
+  const std::size_t n = std::size_t(a.shape(0));
+  const char* base = static_cast<const char*>(a.data());
+  const py::ssize_t rs = a.strides(0), cs = a.ndim() == 2 ? a.strides(1) : 0;
+  const auto run = [&](auto zero) {
+    using T = decltype(zero);
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t c = 0; c < k; ++c) out[i * k + c] = element<T>(base, rs, cs, i, c);
+  };
+  const char kind = a.dtype().kind();
+  const bool native = a.dtype().attr("isnative").cast<bool>();
+  if (native && kind == 'f' && a.itemsize() == 4) return run(float{});
+  if (native && kind == 'f' && a.itemsize() == 8) return run(double{});
+  if (native && (kind == 'i' || kind == 'b') && a.itemsize() == 8) return run(std::int64_t{});
+  if (native && (kind == 'i' || kind == 'b') && a.itemsize() == 4) return run(std::int32_t{});
+  const FloatArray f = FloatArray::ensure(a);  // anything else (int16, uint, float16, big-endian…)
+  if (!f) throw py::type_error("an array NumPy cannot convert to float32");
+  std::memcpy(out, f.data(), n * k * sizeof(float));
+}
+
+/// The N × 3 positions `object` as xyz triples: in place when they are C-ordered float32 rows,
+/// else converted once into `staging.positions` (refused before any copy when it would pass
+/// `limit`). `keep` holds the NumPy arrays read in place for the length of the call.
+std::span<const meniscus::Vec3f> positions_from_python(const py::handle& object, const char* what,
+                                                       const meniscus::Grant& limit, InputArrays& staging,
+                                                       std::vector<py::object>& keep) {
+  const py::array a = numeric_array(object, what);
+  if (a.ndim() != 2 || a.shape(1) != 3)
+    throw py::value_error(fmt::format("{} must be an N×3 array, got shape {}", what, shape_string(a)));
+  const std::size_t n = std::size_t(a.shape(0));
+  const meniscus::Vec3f* xyz = nullptr;
+  if (float_rows_in_place(a, 3)) {
+    keep.push_back(a);
+    staging.bytes_read_in_place += n * sizeof(meniscus::Vec3f);
+    xyz = n == 0 ? nullptr : static_cast<const meniscus::Vec3f*>(a.data());
+  } else {
+    check_input_bytes(double(n) * sizeof(meniscus::Vec3f), limit, what);
+    staging.positions.resize(n);
+    convert_rows(a, 3, reinterpret_cast<float*>(staging.positions.data()));
+    staging.bytes_copied += n * sizeof(meniscus::Vec3f);
+    xyz = staging.positions.data();
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (!std::isfinite(xyz[i].x) || !std::isfinite(xyz[i].y) || !std::isfinite(xyz[i].z))
+      throw py::value_error(fmt::format("{}[{}] is not finite: ({}, {}, {})", what, i, xyz[i].x, xyz[i].y, xyz[i].z));
+  return {xyz, n};
+}
+
+/// name → (n,) or (n, k) arrays as the library's attribute views: in place when float32 rows,
+/// converted once into `staging` otherwise; integer and boolean arrays are flagged `integer` so
+/// that writers restore the type.
+std::vector<meniscus::AttributeView> attribute_views_from_python(const py::handle& object, std::size_t n,
+                                                                 const char* what, const meniscus::Grant& limit,
+                                                                 InputArrays& staging, std::vector<py::object>& keep) {
+  std::vector<meniscus::AttributeView> out;
+  if (object.is_none()) return out;
+  if (!py::isinstance<py::dict>(object)) throw py::type_error(fmt::format("{} must be a dict of arrays", what));
+  const auto dict = py::reinterpret_borrow<py::dict>(object);
+  // Names first, so that the views' names point at strings that stay where they are.
+  staging.names.clear();
+  staging.names.reserve(dict.size());
+  for (const auto& item : dict) staging.names.push_back(py::str(item.first));
+  staging.attribute_values.resize(std::max(staging.attribute_values.size(), dict.size()));
+  std::size_t index = 0;
+  for (const auto& item : dict) {
+    const std::string& name = staging.names[index];
+    const std::string label = fmt::format("{} '{}'", what, name);
+    const py::array a = host_array(item.second, label);
+    const char kind = a.dtype().kind();
+    if (kind != 'f' && kind != 'i' && kind != 'u' && kind != 'b')  // flags may be booleans
+      throw py::type_error(fmt::format("{} must hold numbers, got dtype {}", label, std::string(py::str(a.dtype()))));
+    if (a.ndim() < 1 || a.ndim() > 2 || std::size_t(a.shape(0)) != n || (a.ndim() == 2 && a.shape(1) < 1))
+      throw py::value_error(fmt::format("{} must have shape ({},) or ({}, k), got {}", label, n, n, shape_string(a)));
+    const int components = a.ndim() == 2 ? int(a.shape(1)) : 1;
+    const std::size_t count = n * std::size_t(components);
+    const bool integer = kind == 'i' || kind == 'u' || kind == 'b';
+    std::span<const float> values;
+    if (float_rows_in_place(a, components)) {
+      keep.push_back(a);
+      staging.bytes_read_in_place += count * sizeof(float);
+      values = {count == 0 ? nullptr : static_cast<const float*>(a.data()), count};
+    } else {
+      check_input_bytes(double(count) * sizeof(float), limit, label);
+      std::vector<float>& buffer = staging.attribute_values[index];
+      buffer.resize(count);
+      if (count > 0) convert_rows(a, std::size_t(components), buffer.data());
+      staging.bytes_copied += count * sizeof(float);
+      values = buffer;
+    }
+    out.emplace_back(name, components, integer, values);
+    ++index;
+  }
   return out;
 }
 
-/// name → (n,) or (n, k) arrays as library attributes; integer and boolean arrays are flagged
-/// `integer` so that writers restore the type.
+/// An N × 3 array-like as owned xyz triples (write_mesh, estimate_spacing): positions_from_python
+/// and a copy.
+std::vector<meniscus::Vec3f> vec3_from_python(const py::handle& object, const char* what, const meniscus::Grant& limit) {
+  InputArrays staging;
+  std::vector<py::object> keep;
+  const std::span<const meniscus::Vec3f> xyz = positions_from_python(object, what, limit, staging, keep);
+  if (!staging.positions.empty()) return std::move(staging.positions);
+  return {xyz.begin(), xyz.end()};
+}
+
+/// name → (n,) or (n, k) arrays as owned library attributes (write_mesh): the views and a copy.
 std::vector<meniscus::Attribute> attributes_from_python(const py::handle& object, std::size_t n, const char* what,
                                                         const meniscus::Grant& limit) {
+  InputArrays staging;
+  std::vector<py::object> keep;
   std::vector<meniscus::Attribute> out;
-  if (object.is_none()) return out;
-  if (!py::isinstance<py::dict>(object)) throw py::type_error(fmt::format("{} must be a dict of arrays", what));
-  for (const auto& [key, value] : py::reinterpret_borrow<py::dict>(object)) {
-    meniscus::Attribute a;
-    a.name = py::str(key);
-    const py::array original = py::array::ensure(value);
-    if (!original) throw py::type_error(fmt::format("{} '{}' must be an array of numbers", what, a.name));
-    const char dtype_kind = original.dtype().kind();
-    if (dtype_kind != 'f' && dtype_kind != 'i' && dtype_kind != 'u' && dtype_kind != 'b')  // flags may be booleans
-      throw py::type_error(fmt::format("{} '{}' must hold numbers, got dtype {}", what, a.name,
-                                       std::string(py::str(original.dtype()))));
-    check_input_bytes(double(original.size()) * 2 * sizeof(float), limit, fmt::format("{} '{}'", what, a.name));
-    const FloatArray values = FloatArray::ensure(original);
-    if (!values) throw py::type_error(fmt::format("{} '{}' must be an array of numbers", what, a.name));
-    if (values.ndim() < 1 || values.ndim() > 2 || std::size_t(values.shape(0)) != n ||
-        (values.ndim() == 2 && values.shape(1) < 1))
-      throw py::value_error(fmt::format("{} '{}' must have shape ({},) or ({}, k), got {}", what, a.name, n, n,
-                                        shape_string(values)));
-    a.components = values.ndim() == 2 ? int(values.shape(1)) : 1;
-    const char kind = original.dtype().kind();
-    a.integer = kind == 'i' || kind == 'u' || kind == 'b';
-    a.values.assign(values.data(), values.data() + values.size());
-    out.push_back(std::move(a));
-  }
+  for (const meniscus::AttributeView& view : attribute_views_from_python(object, n, what, limit, staging, keep))
+    out.push_back(view.copy());
   return out;
 }
 
@@ -208,14 +341,11 @@ meniscus::Params params_from_python(const py::dict& kwargs) {
 /// the Python error itself waits in `pending` and is raised once the GIL is back.
 struct CallbackRaised {};
 
-py::dict reconstruct(const py::handle& positions, const py::handle& attributes, const py::dict& kwargs,
-                     const py::object& progress) {
-  const meniscus::Params params = params_from_python(kwargs);
-  const meniscus::Grant limit = meniscus::memory_limit(params.max_memory_gb);
-  meniscus::ParticleSet particles;
-  particles.positions = vec3_from_python(positions, "positions", limit);
-  particles.attributes = attributes_from_python(attributes, particles.size(), "particle attribute", limit);
-
+/// Runs `surface` on the particles with the progress callback (None: only Ctrl-C is checked) and
+/// the GIL released; returns the mesh's arrays (no copies) and its stats as JSON text.
+template <class Surface>
+py::dict surface_with_progress(Surface&& surface, const meniscus::ParticlesView& particles,
+                               const py::object& progress) {
   std::optional<py::error_already_set> pending;
   const meniscus::ProgressFn on_progress = [&](std::string_view stage, double fraction) {
     py::gil_scoped_acquire gil;
@@ -227,11 +357,10 @@ py::dict reconstruct(const py::handle& positions, const py::handle& attributes, 
       throw CallbackRaised{};
     }
   };
-
   meniscus::Result result;
   try {
     py::gil_scoped_release released;
-    result = meniscus::reconstruct(particles, params, on_progress);
+    result = surface(particles, on_progress);
   } catch (const CallbackRaised&) {
     throw std::move(*pending);
   }
@@ -240,6 +369,72 @@ py::dict reconstruct(const py::handle& positions, const py::handle& attributes, 
   out["stats"] = std::move(stats);
   return out;
 }
+
+/// The particles of a call as the library reads them (in place where it can, InputArrays).
+meniscus::ParticlesView particles_view(const py::handle& positions, const py::handle& attributes,
+                                       const meniscus::Grant& limit, InputArrays& staging,
+                                       std::vector<py::object>& keep) {
+  staging.bytes_read_in_place = staging.bytes_copied = 0;
+  meniscus::ParticlesView view;
+  view.positions = positions_from_python(positions, "positions", limit, staging, keep);
+  view.attributes = attribute_views_from_python(attributes, view.size(), "particle attribute", limit, staging, keep);
+  return view;
+}
+
+py::dict reconstruct(const py::handle& positions, const py::handle& attributes, const py::dict& kwargs,
+                     const py::object& progress) {
+  const meniscus::Params params = params_from_python(kwargs);
+  InputArrays staging;
+  std::vector<py::object> keep;
+  const meniscus::ParticlesView particles =
+      particles_view(positions, attributes, meniscus::memory_limit(params.max_memory_gb), staging, keep);
+  py::dict out = surface_with_progress(
+      [&](const meniscus::ParticlesView& view, const meniscus::ProgressFn& on_progress) {
+        return meniscus::reconstruct(view, params, on_progress);
+      },
+      particles, progress);
+  out["bytes_read_in_place"] = staging.bytes_read_in_place;
+  out["bytes_copied"] = staging.bytes_copied;
+  return out;
+}
+
+/// meniscus::Reconstructor with the buffers its converted inputs go through, kept between calls.
+/// Calls are refused while one runs (the flag is read and set with the GIL held), so that a second
+/// thread never writes the buffers a running call reads.
+class PyReconstructor {
+ public:
+  explicit PyReconstructor(const py::dict& kwargs)
+      : surface_(params_from_python(kwargs)), limit_(meniscus::memory_limit(surface_.params().max_memory_gb)) {}
+
+  py::dict call(const py::handle& positions, const py::handle& attributes, const py::object& progress) {
+    if (busy_)
+      throw std::runtime_error("Reconstructor: it is surfacing a frame already (a call from another thread, or from "
+                               "its own progress callback); make one Reconstructor per thread");
+    busy_ = true;
+    struct Idle {
+      bool& busy;
+      ~Idle() { busy = false; }
+    } idle{busy_};
+    std::vector<py::object> keep;
+    const meniscus::ParticlesView particles = particles_view(positions, attributes, limit_, staging_, keep);
+    py::dict out = surface_with_progress(
+        [&](const meniscus::ParticlesView& view, const meniscus::ProgressFn& on_progress) {
+          return surface_(view, on_progress);
+        },
+        particles, progress);
+    out["bytes_read_in_place"] = staging_.bytes_read_in_place;
+    out["bytes_copied"] = staging_.bytes_copied;
+    return out;
+  }
+
+  std::size_t frames() const { return surface_.frames(); }
+
+ private:
+  meniscus::Reconstructor surface_;
+  meniscus::Grant limit_;
+  InputArrays staging_;
+  bool busy_ = false;
+};
 
 py::tuple read_particles(const std::string& path, const std::vector<std::string>& columns, bool drop_invalid,
                          double max_memory_gb) {
@@ -341,6 +536,10 @@ PYBIND11_MODULE(_core, m) {
         py::arg("progress"),
         "positions N×3, attributes dict or None, params dict of config.hpp keys, progress callable or None "
         "-> dict(vertices, triangles, normals, attributes, stats JSON string)");
+  py::class_<PyReconstructor>(m, "Reconstructor")
+      .def(py::init<const py::dict&>(), py::arg("params"))
+      .def("__call__", &PyReconstructor::call, py::arg("positions"), py::arg("attributes"), py::arg("progress"))
+      .def_property_readonly("frames", &PyReconstructor::frames);
   m.def("read_particles", &read_particles, py::arg("path"), py::arg("columns"), py::arg("drop_invalid"),
         py::arg("max_memory_gb"), "-> (positions N×3 float32, attributes dict, format, dropped_invalid)");
   m.def("read_mesh", &read_mesh, py::arg("path"), "-> dict(vertices, triangles, normals, attributes)");

@@ -31,12 +31,12 @@ Reduce local_reduce();
 /// estimate_spacing() of the whole frame from the ranks' parts: `part` is particles
 /// [first, first + part.size()) of the frame's `total`, in the frame's order. Every rank gets the
 /// value estimate_spacing() gives on the whole frame, bit for bit.
-double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::size_t total, const Reduce& reduce,
+double estimate_spacing_parts(const ParticlesView& part, std::size_t first, std::size_t total, const Reduce& reduce,
                               std::size_t max_samples = 50000);
 
 /// resolve_frame_estimates() of the whole frame from the ranks' parts (as estimate_spacing_parts):
 /// the spacing, the rest density and the reference speed, the same on every rank, bit for bit.
-Params resolve_frame_estimates_parts(const ParticleSet& part, std::size_t first, std::size_t total,
+Params resolve_frame_estimates_parts(const ParticlesView& part, std::size_t first, std::size_t total,
                                      const Params& params, const Reduce& reduce);
 
 /// The k-th smallest (0-based) of values spread over the ranks (exact: a radix selection on the

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -99,7 +100,41 @@ struct Result {
 /// A frame far from the origin (its farthest coordinate more than 16 times its extent away) is
 /// computed about local_origin(particles) and its mesh written back where it was (docs/cli.md
 /// "Far from the origin").
-Result reconstruct(const ParticleSet& particles, const Params& params, const ProgressFn& progress = {});
+Result reconstruct(const ParticlesView& particles, const Params& params, const ProgressFn& progress = {});
+
+/// reconstruct() made once and called per frame, as a simulator's loop calls it:
+///
+///     meniscus::Reconstructor surface(params);   // checks the parameters, asks for threads and memory
+///     for (...) { Result r = surface(particles); ... }   // particles: a ParticleSet or a ParticlesView
+///
+/// Each call gives what reconstruct(particles, params) gives, bit for bit (the same stages on the
+/// same parameters), and reads the particles in place. What it does once instead of every call:
+/// checking the parameters (InvalidParameter at construction, before any frame) and asking the
+/// system for the threads and memory granted (granted_threads(), memory_limit(): the CPU affinity,
+/// cgroup and Slurm limits, read when it is made). Every frame's parameters derived from its
+/// particles (spacing when 0, radii, grid) are that frame's, as reconstruct()'s are: a frame's mesh
+/// never depends on an earlier one.
+/// One call at a time: a call while another runs (from a second thread, or from the first one's
+/// progress callback) throws std::runtime_error rather than wait; use one Reconstructor per thread.
+class Reconstructor {
+ public:
+  explicit Reconstructor(const Params& params);
+  ~Reconstructor();
+  Reconstructor(Reconstructor&&) noexcept;
+  Reconstructor& operator=(Reconstructor&&) noexcept;
+  Reconstructor(const Reconstructor&) = delete;
+  Reconstructor& operator=(const Reconstructor&) = delete;
+
+  Result operator()(const ParticlesView& particles, const ProgressFn& progress = {});
+  /// The parameters as given (each frame's Result::params has them resolved for its particles).
+  const Params& params() const;
+  /// Frames surfaced so far.
+  std::size_t frames() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
 
 /// The point reconstruct() computes a frame about: {0, 0, 0} for a frame near the origin (its
 /// farthest coordinate within 16 times its extent), else the middle of its bounding box rounded
@@ -108,16 +143,16 @@ std::array<double, 3> local_origin(const std::array<double, 3>& lo, const std::a
 
 /// local_origin() of the particles reconstruct() surfaces (those in params.particle_box, if one
 /// is given).
-std::array<double, 3> frame_origin(const ParticleSet& particles, const Params& params);
+std::array<double, 3> frame_origin(const ParticlesView& particles, const Params& params);
 
 /// reconstruct() about a given origin: a part of a frame (an MPI rank's slab) is computed about
 /// the whole frame's local_origin, so that every part rounds as the whole frame would.
-Result reconstruct_about(const ParticleSet& particles, const Params& params, const std::array<double, 3>& origin,
+Result reconstruct_about(const ParticlesView& particles, const Params& params, const std::array<double, 3>& origin,
                          const ProgressFn& progress = {});
 
 /// Fills in every derived (zero) parameter of `params` for these particles: spacing
 /// (estimate_spacing), voxel size, radii, transfer radius, threads; then validates.
-Params resolve_params(const ParticleSet& particles, const Params& params);
+Params resolve_params(const ParticlesView& particles, const Params& params);
 
 /// R_local for resolved parameters `p`: every vertex's final position is a function of the
 /// particles within this distance of it, bit for bit (README "A local surface"). The smoothing
@@ -136,7 +171,7 @@ double local_reach(const Params& p);
 /// a density but no mass) and the velocity weighting's reference speed. Everything else the
 /// pipeline derives is local. A sequence resolves these on its first frame and uses them for
 /// every frame, so that a droplet appearing in one frame changes nothing far from it.
-Params resolve_frame_estimates(const ParticleSet& particles, const Params& params);
+Params resolve_frame_estimates(const ParticlesView& particles, const Params& params);
 
 /// The particle spacing: the larger of the median nearest-neighbour distance (exact for
 /// lattice-like sets) and the first quartile of the local density spacing
@@ -147,7 +182,7 @@ Params resolve_frame_estimates(const ParticleSet& particles, const Params& param
 /// the density round the samples near them and are never samples themselves (unless every sample
 /// falls in a pile): a pile has no spacing of its own, and costs no more than one particle.
 /// Estimated from a deterministic sample of at most `max_samples` particles.
-double estimate_spacing(const ParticleSet& particles, std::size_t max_samples = 50000);
+double estimate_spacing(const ParticlesView& particles, std::size_t max_samples = 50000);
 
 /// Keeps the particles inside `box` (xmin, ymin, zmin, xmax, ymax, zmax; faces included) with
 /// their attributes, in order; returns how many were dropped. An empty box keeps all.

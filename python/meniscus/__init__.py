@@ -31,8 +31,10 @@ with parameters named as keywords: ``steps_a=20001: must be a whole number from 
 =================================  ============================================================
 
 Arrays returned by :func:`reconstruct`, :func:`read_mesh` and :func:`read_particles` share memory
-with the C++ result (their ``.base`` owns it): nothing is copied. The GIL is released while the
-library reads, writes or reconstructs, so other Python threads keep running.
+with the C++ result (their ``.base`` owns it): nothing is copied. Input arrays are read in place
+when they are C-ordered float32 (NumPy, memory maps, the buffer protocol, ``__array_interface__``,
+``__dlpack__`` on the host), converted once otherwise. The GIL is released while the library
+reads, writes or reconstructs, so other Python threads keep running.
 """
 
 import json as _json
@@ -48,6 +50,7 @@ __all__ = [
     "FormatError",
     "Mesh",
     "Particles",
+    "Reconstructor",
     "estimate_spacing",
     "mesh_formats",
     "parameters",
@@ -145,29 +148,89 @@ class Particles:
         return f"<meniscus.Particles {len(self.positions)} particles ({self.format}), {names}>"
 
 
-def reconstruct(positions, attributes=None, *, progress=None, **params):
-    """Surfaces particles into a watertight triangle mesh.
-
-    ``positions``  N×3 array-like of float32/float64 (or a :class:`Particles`, whose attributes
-                   are used when ``attributes`` is None)
-    ``attributes`` dict name → (N,) or (N, k) array; those named in ``transfer`` are carried onto
-                   the mesh vertices
-    ``progress``   optional ``callable(stage: str, fraction: float)``, called at the start (0.0)
-                   and end (1.0) of every stage; raising in it cancels the reconstruction and the
-                   exception propagates. Ctrl-C is honoured at stage boundaries too.
-    ``**params``   the CLI's options with ``_`` (see the module doc); a value of None is ignored.
-
-    Returns a :class:`Mesh` with ``stats`` and ``params``. Raises ValueError for a bad parameter
-    (message names it), MemoryError when the job would not fit (``max_memory_gb``).
-    """
+def _input_arrays(positions, attributes, progress):
     if isinstance(positions, Particles):
         if attributes is None:
             attributes = positions.attributes
         positions = positions.positions
     if progress is not None and not callable(progress):
         raise TypeError("progress must be callable(stage, fraction)")
-    arrays = _core.reconstruct(positions, attributes, params, progress)
-    return Mesh._from_core(arrays, _json.loads(arrays["stats"]))
+    return positions, attributes
+
+
+def _mesh_of(arrays):
+    stats = _json.loads(arrays["stats"])
+    stats["input"] = {"bytes_read_in_place": arrays["bytes_read_in_place"],
+                      "bytes_copied": arrays["bytes_copied"]}
+    return Mesh._from_core(arrays, stats)
+
+
+def reconstruct(positions, attributes=None, *, progress=None, **params):
+    """Surfaces particles into a watertight triangle mesh.
+
+    ``positions``  N×3 array of float32/float64 (or integers) in any layout: a NumPy array, or
+                   any object with the buffer protocol, ``__array_interface__`` or a host
+                   ``__dlpack__`` (a PyTorch CPU tensor); C-ordered float32 is read in place,
+                   anything else converted once. A :class:`Particles` too, whose attributes are
+                   used when ``attributes`` is None
+    ``attributes`` dict name → (N,) or (N, k) array (read the same way); those named in
+                   ``transfer`` are carried onto the mesh vertices
+    ``progress``   optional ``callable(stage: str, fraction: float)``, called at the start (0.0)
+                   and end (1.0) of every stage; raising in it cancels the reconstruction and the
+                   exception propagates. Ctrl-C is honoured at stage boundaries too.
+    ``**params``   the CLI's options with ``_`` (see the module doc); a value of None is ignored.
+
+    Returns a :class:`Mesh` with ``stats`` and ``params`` (``stats["input"]``: the input bytes
+    read in place and copied). Raises ValueError for a bad parameter or input (the message names
+    it: ``positions[7] is not finite``), TypeError for an array of the wrong kind (strings, or
+    one on a CUDA device), MemoryError when the job would not fit (``max_memory_gb``).
+    For a frame after frame, :class:`Reconstructor` does once what this does every call.
+    """
+    positions, attributes = _input_arrays(positions, attributes, progress)
+    return _mesh_of(_core.reconstruct(positions, attributes, params, progress))
+
+
+class Reconstructor:
+    """:func:`reconstruct` made once and called per frame, as a simulator's loop calls it::
+
+        surface = meniscus.Reconstructor(spacing=0.025, preset="production")
+        for step in range(frames):
+            simulate(positions)                      # the simulator's own arrays …
+            mesh = surface(positions)                # … read in place (float32 N×3)
+
+    Each call returns what ``reconstruct(positions, attributes, **params)`` returns, bit for bit.
+    Made once: the parameters are checked (ValueError here, before any frame), the threads and
+    memory granted are asked of the system, and the buffers that converted inputs (float64,
+    strided) go through are kept from call to call. Every frame's derived parameters (spacing when
+    not given, radii, grid) are its own, so a frame's mesh never depends on an earlier one.
+
+    One call at a time: a call while another runs (from a second thread, or from the running
+    call's ``progress``) raises RuntimeError; make one Reconstructor per thread.
+    """
+
+    __slots__ = ("_core", "_params")
+
+    def __init__(self, **params):
+        self._params = dict(params)
+        self._core = _core.Reconstructor(params)
+
+    def __call__(self, positions, attributes=None, *, progress=None):
+        positions, attributes = _input_arrays(positions, attributes, progress)
+        return _mesh_of(self._core(positions, attributes, progress))
+
+    @property
+    def params(self):
+        """The parameters as given (each mesh's ``params`` has them resolved for its frame)."""
+        return dict(self._params)
+
+    @property
+    def frames(self):
+        """Frames surfaced so far."""
+        return self._core.frames
+
+    def __repr__(self):
+        given = ", ".join(f"{k}={v!r}" for k, v in self._params.items())
+        return f"<meniscus.Reconstructor({given}), {self.frames} frames>"
 
 
 def read_particles(path, columns=None, drop_invalid=False, max_memory_gb=0):

@@ -38,8 +38,31 @@ std::size_t ParticleSet::keep_if(const std::function<bool(Vec3f)>& keep) {
   return n - kept;
 }
 
-void ParticleSet::validate() const {
-  for (const Attribute& a : attributes) {
+void ParticleSet::validate() const { ParticlesView(*this).validate(); }
+
+Attribute AttributeView::copy() const {
+  return Attribute{std::string(name), components, integer, std::vector<float>(values.begin(), values.end())};
+}
+
+ParticlesView::ParticlesView(const ParticleSet& set)
+    : positions(set.positions), attributes(set.attributes.begin(), set.attributes.end()) {}
+
+const AttributeView* ParticlesView::find(std::string_view name) const {
+  for (const AttributeView& a : attributes)
+    if (a.name == name) return &a;
+  return nullptr;
+}
+
+ParticleSet ParticlesView::copy() const {
+  ParticleSet out;
+  out.positions.assign(positions.begin(), positions.end());
+  out.attributes.reserve(attributes.size());
+  for (const AttributeView& a : attributes) out.attributes.push_back(a.copy());
+  return out;
+}
+
+void ParticlesView::validate() const {
+  for (const AttributeView& a : attributes) {
     if (a.components < 1)
       throw InvalidParameter(fmt::format("attribute '{}' has {} components", a.name, a.components));
     if (a.values.size() != positions.size() * std::size_t(a.components))

@@ -147,7 +147,7 @@ class DeviceStages final : public StageBackend {
     timer_.run("upload", [&] {
       points_.upload(particles_.positions.data(), n);
       for (std::size_t k = 0; k < plan_.transfer.size(); ++k) {
-        const Attribute* a = particles_.find(plan_.transfer[k]);
+        const AttributeView* a = particles_.find(plan_.transfer[k]);
         attributes_[k].upload(a->values.data(), a->values.size());
       }
       if (!volumes_.empty()) volumes_device_.upload(volumes_.data(), volumes_.size());
@@ -260,7 +260,7 @@ class DeviceStages final : public StageBackend {
       out.normals.resize(mesh_.vertex_count);
       normals_.download(out.normals.data(), mesh_.vertex_count);
       for (std::size_t k = 0; k < plan_.transfer.size(); ++k) {
-        const Attribute* a = particles_.find(plan_.transfer[k]);
+        const AttributeView* a = particles_.find(plan_.transfer[k]);
         Attribute attribute;
         attribute.name = a->name;
         attribute.components = a->components;
@@ -271,11 +271,11 @@ class DeviceStages final : public StageBackend {
     });
   }
 
-  const ParticleSet& particles_;
+  const ParticlesView& particles_;
   const Params& p_;
   const StagePlan& plan_;
   const std::vector<float>& volumes_;
-  const Attribute* velocity_;
+  const AttributeView* velocity_;
   Stats& stats_;
   EventTimer timer_;
   Vec3f lo_{}, hi_{};

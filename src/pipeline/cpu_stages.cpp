@@ -26,7 +26,7 @@ namespace meniscus {
 namespace {
 
 /// Per-vertex damping factors of the velocity weighting (velocity_weight_impl.hpp).
-std::vector<float> velocity_weights(const Attribute& velocity, const HashGrid& grid, std::span<const Vec3f> vertices,
+std::vector<float> velocity_weights(const AttributeView& velocity, const HashGrid& grid, std::span<const Vec3f> vertices,
                                     const Params& p) {
   std::vector<float> w(vertices.size(), 1.0f);
   if (!(p.velocity_reference > 0)) return w;  // nothing moves: smooth everywhere
@@ -54,7 +54,7 @@ class CpuStages final : public StageBackend {
     const HashGrid raw(particles_.positions, pass.raw_cell);
     if (pass.anisotropic) ellipsoids_ = yu_turk_ellipsoids(raw, pass.pca_radius, pass.constants, coincident_);
     if (!(pass.lambda > 0)) {
-      centres_ = particles_.positions;
+      centres_.assign(particles_.positions.begin(), particles_.positions.end());
       return;
     }
     centres_ = smooth_positions(raw, pass.smooth_radius, pass.lambda, coincident_);
@@ -194,11 +194,11 @@ class CpuStages final : public StageBackend {
   void finish(TriangleMesh& mesh) override { mesh = std::move(mesh_); }
 
  private:
-  const ParticleSet& particles_;
+  const ParticlesView& particles_;
   const Params& p_;
   const StagePlan& plan_;
   const std::vector<float>& volumes_;
-  const Attribute* velocity_;
+  const AttributeView* velocity_;
   const bool order_keys_;
   std::span<const uint32_t> coincident_;  // per particle, the first at its position (empty: none)
   Stats& stats_;

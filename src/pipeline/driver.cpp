@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <memory>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 
@@ -62,19 +64,19 @@ std::size_t keep_particles_in_box(ParticleSet& particles, const std::vector<doub
 namespace {
 
 /// The input checks of reconstruct(); returns the particles' velocity attribute (or null).
-const Attribute* check_inputs(const ParticleSet& particles, const Params& params) {
+const AttributeView* check_inputs(const ParticlesView& particles, const Params& params) {
   check_particles(particles);
   if (particles.size() == 0) throw InputError("no particles to surface");
   for (const std::string& name : params.transfer)
     if (!particles.find(name)) {
       std::string available;
-      for (const Attribute& a : particles.attributes) available += (available.empty() ? "" : ", ") + a.name;
+      for (const AttributeView& a : particles.attributes) available += (available.empty() ? "" : ", ") + std::string(a.name);
       throw InvalidParameter(fmt::format("transfer: the particles have no attribute '{}' (they have: {})", name,
                                          available.empty() ? "none" : available));
     }
   // What an optional dependency does, refused before any work where this build has not got it.
   check_post_processing_available(params);
-  const Attribute* velocity = velocity_attribute(particles);
+  const AttributeView* velocity = velocity_attribute(particles);
   if (params.velocity_weighted && !velocity)
     throw InvalidParameter("velocity_weighted: the particles have no velocity attribute (v, vel or velocity with 3 "
                            "components); surface without --velocity-weighted");
@@ -83,11 +85,11 @@ const Attribute* check_inputs(const ParticleSet& particles, const Params& params
 
 /// The particles with a bridge across each pinhole of thin water (grid/pinholes.hpp); a bridge
 /// takes the attribute values of the particle nearest to it. Empty when there is no pinhole.
-ParticleSet with_pinhole_bridges(const ParticleSet& particles, const Params& p, Stats& stats) {
+ParticleSet with_pinhole_bridges(const ParticlesView& particles, const Params& p, Stats& stats) {
   const std::vector<Vec3f> bridges = pinhole_bridges(particles.positions, pinhole_settings(p.spacing, p.r_outer));
   stats.pinhole_bridges = bridges.size();
   if (bridges.empty()) return {};
-  ParticleSet out = particles;
+  ParticleSet out = particles.copy();
   out.positions.insert(out.positions.end(), bridges.begin(), bridges.end());
   if (!particles.attributes.empty()) {
     const HashGrid grid(particles.positions, float(p.r_outer));
@@ -175,7 +177,7 @@ bool run_on_device(const PipelineInput& in, Result& result, const ProgressFn& pr
 
 /// The finished mesh's post-processing on the host, whichever backend made it: the strays, the
 /// clip (and its cap), then the simplification.
-void post_process(const StagePlan& plan, const ParticleSet& particles, Result& result, const ProgressFn& progress) {
+void post_process(const StagePlan& plan, const ParticlesView& particles, Result& result, const ProgressFn& progress) {
   TriangleMesh& mesh = result.mesh;
   Stats& stats = result.stats;
   StageTimer timer(stats, progress);
@@ -220,7 +222,7 @@ void post_process(const StagePlan& plan, const ParticleSet& particles, Result& r
 }
 
 /// The bounding box of the particles (empty: lo > hi).
-std::pair<std::array<double, 3>, std::array<double, 3>> bounds_of(const ParticleSet& particles) {
+std::pair<std::array<double, 3>, std::array<double, 3>> bounds_of(const ParticlesView& particles) {
   std::array<double, 3> lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
   for (const Vec3f& p : particles.positions)
     for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], double(p[a])), hi[a] = std::max(hi[a], double(p[a]));
@@ -250,21 +252,31 @@ std::array<double, 3> local_origin(const std::array<double, 3>& lo, const std::a
 
 namespace {
 
-/// reconstruct() about `o` (local_origin); with `keys`, on the CPU's stages with the vertices'
-/// order keys (reconstruct_ordered).
-Result reconstruct_keyed(const ParticleSet& all_particles, const Params& params, const std::array<double, 3>& o,
-                         const ProgressFn& progress, std::vector<VertexOrderKey>* keys) {
+/// The threads and the memory a run is granted: granted_threads() and memory_limit() unless the
+/// parameters fix them. A Reconstructor asks once; reconstruct() asks every call.
+struct RunGrants {
+  Grant cpus, memory;
+  explicit RunGrants(const Params& params)
+      : cpus(params.threads > 0 ? Grant{double(params.threads), "--threads"} : granted_threads()),
+        memory(memory_limit(params.max_memory_gb)) {}
+};
+
+/// reconstruct() about `o` (local_origin) with these grants; with `keys`, on the CPU's stages with
+/// the vertices' order keys (reconstruct_ordered).
+Result reconstruct_keyed(const ParticlesView& all_particles, const Params& params, const std::array<double, 3>& o,
+                         const ProgressFn& progress, std::vector<VertexOrderKey>* keys, const RunGrants& grants) {
   // --particle-box: the particles outside are ignored before anything else.
   ParticleSet boxed;
   std::size_t outside = 0;
   if (!params.particle_box.empty()) {
     params.validate();
-    boxed = all_particles;
+    boxed = all_particles.copy();
     outside = keep_particles_in_box(boxed, params.particle_box);
     if (boxed.size() == 0 && all_particles.size() > 0)
       throw InvalidParameter(fmt::format("particle_box: all {} particles are outside the box", all_particles.size()));
   }
-  const ParticleSet& given_particles = params.particle_box.empty() ? all_particles : boxed;
+  const ParticlesView boxed_view = params.particle_box.empty() ? ParticlesView{} : ParticlesView(boxed);
+  const ParticlesView& given_particles = params.particle_box.empty() ? all_particles : boxed_view;
   // A frame far from the origin is computed about a local one (and its clip box with it) and
   // written back where it was.
   const struct {
@@ -273,23 +285,24 @@ Result reconstruct_keyed(const ParticleSet& all_particles, const Params& params,
   } origin{o[0], o[1], o[2]};
   ParticleSet local;
   if (origin.shifted()) {
-    local = given_particles;
+    local = given_particles.copy();
     for (Vec3f& x : local.positions)
       x = Vec3f{float(double(x.x) - origin.x), float(double(x.y) - origin.y), float(double(x.z) - origin.z)};
   }
-  const ParticleSet& particles = origin.shifted() ? local : given_particles;
+  const ParticlesView local_view = origin.shifted() ? ParticlesView(local) : ParticlesView{};
+  const ParticlesView& particles = origin.shifted() ? local_view : given_particles;
   Result result;
   Stats& stats = result.stats;
   stats.particles_outside_box = outside;
-  const Attribute* velocity = check_inputs(particles, params);
-  const Grant cpus = params.threads > 0 ? Grant{double(params.threads), "--threads"} : granted_threads();
+  const AttributeView* velocity = check_inputs(particles, params);
+  const Grant& cpus = grants.cpus;
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(cpus.amount));
   Params given = params;
   given.threads = int(cpus.amount);
   if (origin.shifted() && given.clip_box.size() == 6)
     for (int k = 0; k < 6; ++k) given.clip_box[std::size_t(k)] -= k % 3 == 0 ? origin.x : (k % 3 == 1 ? origin.y : origin.z);
   stats.threads_from = cpus.source;
-  const Grant memory = memory_limit(given.max_memory_gb);
+  const Grant& memory = grants.memory;
   given.max_memory_gb = memory.amount / 1e9;
   stats.max_memory_from = memory.source;
   // The parameters, the bridges across pinholes (fill_pinholes), then the coincident particles (a
@@ -299,10 +312,11 @@ Result reconstruct_keyed(const ParticleSet& all_particles, const Params& params,
   Params p = StageTimer(stats, progress).run("parameters", [&] {
     Params resolved = resolve_params(particles, given);
     if (resolved.fill_pinholes) bridged = with_pinhole_bridges(particles, resolved, stats);
-    coincident = coincident_particles(bridged.positions.empty() ? particles : bridged, resolved);
+    coincident = coincident_particles(bridged.positions.empty() ? particles : ParticlesView(bridged), resolved);
     return resolved;
   });
-  const ParticleSet& input = bridged.positions.empty() ? particles : bridged;
+  const ParticlesView bridged_view = bridged.positions.empty() ? ParticlesView{} : ParticlesView(bridged);
+  const ParticlesView& input = bridged.positions.empty() ? particles : bridged_view;
   if (!bridged.positions.empty()) velocity = velocity_attribute(input);
   stats.spacing_estimated = params.spacing == 0;
   stats.particles = particles.size();
@@ -314,7 +328,8 @@ Result reconstruct_keyed(const ParticleSet& all_particles, const Params& params,
                                          ? particle_volumes(input, p.spacing, p.rest_density)
                                          : std::vector<float>{};
   const StagePlan plan = plan_stages(p);  // both backends run these stages, in run_stages' order
-  const ParticleSet& surfaced = coincident.moved ? *coincident.moved : input;
+  const ParticlesView moved_view = coincident.moved ? ParticlesView(*coincident.moved) : ParticlesView{};
+  const ParticlesView& surfaced = coincident.moved ? moved_view : input;
   const PipelineInput in{surfaced, p, plan, volumes, velocity, keys != nullptr, coincident.first};
   if (keys != nullptr || !run_on_device(in, result, progress)) {
     stats.backend = "cpu";
@@ -357,25 +372,25 @@ Result reconstruct_keyed(const ParticleSet& all_particles, const Params& params,
 
 }  // namespace
 
-std::array<double, 3> frame_origin(const ParticleSet& particles, const Params& params) {
+std::array<double, 3> frame_origin(const ParticlesView& particles, const Params& params) {
   if (params.particle_box.empty()) {
     const auto [lo, hi] = bounds_of(particles);
     return local_origin(lo, hi);
   }
   params.validate();
-  ParticleSet boxed = particles;
+  ParticleSet boxed = particles.copy();
   keep_particles_in_box(boxed, params.particle_box);
   const auto [lo, hi] = bounds_of(boxed);
   return local_origin(lo, hi);
 }
 
-Result reconstruct(const ParticleSet& particles, const Params& params, const ProgressFn& progress) {
-  return reconstruct_keyed(particles, params, frame_origin(particles, params), progress, nullptr);
+Result reconstruct(const ParticlesView& particles, const Params& params, const ProgressFn& progress) {
+  return reconstruct_keyed(particles, params, frame_origin(particles, params), progress, nullptr, RunGrants(params));
 }
 
-Result reconstruct_about(const ParticleSet& particles, const Params& params, const std::array<double, 3>& origin,
+Result reconstruct_about(const ParticlesView& particles, const Params& params, const std::array<double, 3>& origin,
                          const ProgressFn& progress) {
-  return reconstruct_keyed(particles, params, origin, progress, nullptr);
+  return reconstruct_keyed(particles, params, origin, progress, nullptr, RunGrants(params));
 }
 
 Result reconstruct_ordered(const ParticleSet& particles, const Params& params, std::vector<VertexOrderKey>& keys,
@@ -394,11 +409,43 @@ Result reconstruct_ordered(const ParticleSet& particles, const Params& params, s
   if (params.erode > 0)
     throw InvalidParameter("erode: the erosion moves each vertex along a normal summed in the slab's triangle order, "
                            "which rounds differently from the whole frame's at a few vertices");
-  Result result = reconstruct_keyed(particles, params, origin, {}, &keys);
+  Result result = reconstruct_keyed(particles, params, origin, {}, &keys, RunGrants(params));
   for (std::size_t v = 1; v < keys.size(); ++v)
     if (!(keys[v - 1] < keys[v]))
       throw std::logic_error(fmt::format("reconstruct_ordered: vertices {} and {} are not in their keys' order", v - 1, v));
   return result;
 }
+
+struct Reconstructor::State {
+  Params params;
+  RunGrants grants;
+  std::mutex busy;
+  std::size_t frames = 0;
+  explicit State(const Params& p) : params(p), grants(p) {}
+};
+
+Reconstructor::Reconstructor(const Params& params) {
+  params.validate();
+  state_ = std::make_unique<State>(params);
+}
+
+Reconstructor::~Reconstructor() = default;
+Reconstructor::Reconstructor(Reconstructor&&) noexcept = default;
+Reconstructor& Reconstructor::operator=(Reconstructor&&) noexcept = default;
+
+Result Reconstructor::operator()(const ParticlesView& particles, const ProgressFn& progress) {
+  if (!state_) throw std::logic_error("Reconstructor: used after it was moved from");
+  const std::unique_lock lock(state_->busy, std::try_to_lock);
+  if (!lock.owns_lock())
+    throw std::runtime_error("Reconstructor: it is surfacing a frame already (a call from another thread, or from "
+                             "its own progress callback); make one Reconstructor per thread");
+  Result result = reconstruct_keyed(particles, state_->params, frame_origin(particles, state_->params), progress,
+                                    nullptr, state_->grants);
+  ++state_->frames;
+  return result;
+}
+
+const Params& Reconstructor::params() const { return state_->params; }
+std::size_t Reconstructor::frames() const { return state_->frames; }
 
 }  // namespace meniscus

@@ -44,7 +44,7 @@ inline constexpr double kCoincidentSpacings = 1e-5;
 void check_coordinates(std::span<const Vec3f> positions, std::size_t first, double cell, std::string_view what);
 
 /// Attribute lengths, and every coordinate finite (InputError naming the first that is not).
-void check_particles(const ParticleSet& particles);
+void check_particles(const ParticlesView& particles);
 
 /// Coincident particles (coincident_particles): the particles the stages surface, and which are
 /// copies of which.
@@ -62,24 +62,25 @@ struct CoincidentParticles {
 /// of its group, so that a near-coincident pile becomes exact copies of one particle. A frame
 /// without such particles comes back as given (nothing moved, nothing allocated but the search).
 /// O(n) plus O(k log k) for a pile of k.
-CoincidentParticles coincident_particles(const ParticleSet& particles, const Params& resolved);
+CoincidentParticles coincident_particles(const ParticlesView& particles, const Params& resolved);
 
 /// The particles' attribute with one of these names and this many components, or nullptr.
-const Attribute* find_attribute(const ParticleSet& particles, std::initializer_list<const char*> names, int components);
-const Attribute* density_attribute(const ParticleSet& particles);
-const Attribute* mass_attribute(const ParticleSet& particles);
-const Attribute* velocity_attribute(const ParticleSet& particles);
+const AttributeView* find_attribute(const ParticlesView& particles, std::initializer_list<const char*> names,
+                                    int components);
+const AttributeView* density_attribute(const ParticlesView& particles);
+const AttributeView* mass_attribute(const ParticlesView& particles);
+const AttributeView* velocity_attribute(const ParticlesView& particles);
 
 /// The median of the particles' positive densities (0 when none is positive).
-double median_density(const Attribute& density);
+double median_density(const AttributeView& density);
 
 /// SPH volumes m_i/ρ_i per original particle (Müller et al. 2003): mass/density when the particles
 /// carry both, d³·ρ₀/ρ_i with a density only (uniform mass; ρ₀ = rest_density, resolved), empty
 /// (uniform d³) otherwise. Each volume is the particle's own: nothing frame-wide but ρ₀.
-std::vector<float> particle_volumes(const ParticleSet& particles, double d, double rho0);
+std::vector<float> particle_volumes(const ParticlesView& particles, double d, double rho0);
 
 /// The velocity weighting's reference speed when not given: the particles' 95th-percentile speed.
-double velocity_reference(const Attribute& velocity);
+double velocity_reference(const AttributeView& velocity);
 
 /// A per-particle array in the grid's sorted order.
 template <class T>

@@ -45,7 +45,7 @@ void check_coordinates(std::span<const Vec3f> positions, std::size_t first, doub
   }
 }
 
-void check_particles(const ParticleSet& particles) {
+void check_particles(const ParticlesView& particles) {
   particles.validate();
   for (std::size_t i = 0; i < particles.size(); ++i) {
     const Vec3f p = particles.positions[i];
@@ -54,16 +54,16 @@ void check_particles(const ParticleSet& particles) {
   }
 }
 
-CoincidentParticles coincident_particles(const ParticleSet& particles, const Params& resolved) {
+CoincidentParticles coincident_particles(const ParticlesView& particles, const Params& resolved) {
   CoincidentParticles out;
   const HashGrid grid(particles.positions, float(std::max(resolved.spacing, resolved.voxel_size)));
   CoincidentPoints groups = coincident_points(grid, kCoincidentSpacings * resolved.spacing);
   if (groups.copies == 0) return out;
-  const std::vector<Vec3f>& x = particles.positions;
+  const std::span<const Vec3f> x = particles.positions;
   bool apart = false;
   for (std::size_t i = 0; i < x.size() && !apart; ++i) apart = !(x[i] == x[groups.first[i]]);
   if (apart) {
-    out.moved = particles;
+    out.moved = particles.copy();
     std::vector<Vec3f>& y = out.moved->positions;
     for (std::size_t i = 0; i < y.size(); ++i) y[i] = y[groups.first[i]];  // a first precedes its copies
   }
@@ -71,21 +71,22 @@ CoincidentParticles coincident_particles(const ParticleSet& particles, const Par
   return out;
 }
 
-const Attribute* find_attribute(const ParticleSet& particles, std::initializer_list<const char*> names, int components) {
+const AttributeView* find_attribute(const ParticlesView& particles, std::initializer_list<const char*> names,
+                                    int components) {
   for (const char* name : names)
-    if (const Attribute* a = particles.find(name); a && a->components == components) return a;
+    if (const AttributeView* a = particles.find(name); a && a->components == components) return a;
   return nullptr;
 }
 
-const Attribute* density_attribute(const ParticleSet& particles) {
+const AttributeView* density_attribute(const ParticlesView& particles) {
   return find_attribute(particles, {"density", "rho", "dens"}, 1);
 }
-const Attribute* mass_attribute(const ParticleSet& particles) { return find_attribute(particles, {"mass", "m"}, 1); }
-const Attribute* velocity_attribute(const ParticleSet& particles) {
+const AttributeView* mass_attribute(const ParticlesView& particles) { return find_attribute(particles, {"mass", "m"}, 1); }
+const AttributeView* velocity_attribute(const ParticlesView& particles) {
   return find_attribute(particles, {"v", "vel", "velocity"}, 3);
 }
 
-double median_density(const Attribute& density) {
+double median_density(const AttributeView& density) {
   std::vector<float> rho;
   rho.reserve(density.values.size());
   for (float r : density.values)
@@ -96,10 +97,10 @@ double median_density(const Attribute& density) {
   return double(*mid);
 }
 
-std::vector<float> particle_volumes(const ParticleSet& particles, double d, double rho0) {
-  const Attribute* density = density_attribute(particles);
+std::vector<float> particle_volumes(const ParticlesView& particles, double d, double rho0) {
+  const AttributeView* density = density_attribute(particles);
   if (!density) return {};
-  const Attribute* mass = mass_attribute(particles);
+  const AttributeView* mass = mass_attribute(particles);
   if (!mass && !(rho0 > 0)) return {};
   std::vector<float> v(particles.size());
   for (std::size_t i = 0; i < v.size(); ++i) {
@@ -112,7 +113,7 @@ std::vector<float> particle_volumes(const ParticleSet& particles, double d, doub
   return v;
 }
 
-double velocity_reference(const Attribute& velocity) {
+double velocity_reference(const AttributeView& velocity) {
   std::vector<float> speed(velocity.size());
   for (std::size_t i = 0; i < speed.size(); ++i)
     speed[i] = length(Vec3f{velocity.values[3 * i], velocity.values[3 * i + 1], velocity.values[3 * i + 2]});
@@ -122,11 +123,11 @@ double velocity_reference(const Attribute& velocity) {
   return double(*q);
 }
 
-double estimate_spacing(const ParticleSet& particles, std::size_t max_samples) {
+double estimate_spacing(const ParticlesView& particles, std::size_t max_samples) {
   return estimate_spacing_parts(particles, 0, particles.size(), local_reduce(), max_samples);
 }
 
-double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::size_t n, const Reduce& reduce,
+double estimate_spacing_parts(const ParticlesView& part, std::size_t first, std::size_t n, const Reduce& reduce,
                               std::size_t max_samples) {
   if (n < 2)
     throw InputError(fmt::format("cannot estimate the particle spacing from fewer than 2 particles; give {}",
@@ -294,7 +295,7 @@ double estimate_spacing_parts(const ParticleSet& part, std::size_t first, std::s
   return double(std::max(median_nn, *quartile));
 }
 
-Params resolve_params(const ParticleSet& particles, const Params& in) {
+Params resolve_params(const ParticlesView& particles, const Params& in) {
   in.validate();
   Params p = in;
   if (p.spacing == 0) p.spacing = estimate_spacing(particles);
@@ -324,9 +325,9 @@ Params resolve_params(const ParticleSet& particles, const Params& in) {
   // The frame-wide estimates besides the spacing (resolve_frame_estimates).
   if (p.rest_density == 0 && (p.field == FieldMethod::sph || p.field == FieldMethod::anisotropic) &&
       !mass_attribute(particles))
-    if (const Attribute* density = density_attribute(particles)) p.rest_density = median_density(*density);
+    if (const AttributeView* density = density_attribute(particles)) p.rest_density = median_density(*density);
   if (p.velocity_weighted && p.velocity_reference == 0)
-    if (const Attribute* velocity = velocity_attribute(particles))
+    if (const AttributeView* velocity = velocity_attribute(particles))
       p.velocity_reference = velocity_reference(*velocity);
   if (p.threads == 0) p.threads = int(granted_threads().amount);
   if (p.max_memory_gb == 0) p.max_memory_gb = memory_limit(0).amount / 1e9;
@@ -371,18 +372,18 @@ double local_reach(const Params& p) {
   return rings * edge + std::max(field, projection) + simplified + bridges + handles;
 }
 
-Params resolve_frame_estimates(const ParticleSet& particles, const Params& params) {
+Params resolve_frame_estimates(const ParticlesView& particles, const Params& params) {
   if (params.particle_box.empty())
     return resolve_frame_estimates_parts(particles, 0, particles.size(), params, local_reduce());
   params.validate();
-  ParticleSet boxed = particles;  // the estimates of the particles reconstruct() surfaces
+  ParticleSet boxed = particles.copy();  // the estimates of the particles reconstruct() surfaces
   keep_particles_in_box(boxed, params.particle_box);
   if (boxed.size() == 0 && particles.size() > 0)  // as reconstruct() says it
     throw InvalidParameter(fmt::format("particle_box: all {} particles are outside the box", particles.size()));
   return resolve_frame_estimates_parts(boxed, 0, boxed.size(), params, local_reduce());
 }
 
-Params resolve_frame_estimates_parts(const ParticleSet& part, std::size_t first, std::size_t total,
+Params resolve_frame_estimates_parts(const ParticlesView& part, std::size_t first, std::size_t total,
                                      const Params& params, const Reduce& reduce) {
   params.validate();
   Params p = params;
@@ -393,7 +394,7 @@ Params resolve_frame_estimates_parts(const ParticleSet& part, std::size_t first,
   if (p.rest_density == 0 && (p.field == FieldMethod::sph || p.field == FieldMethod::anisotropic) &&
       !mass_attribute(part)) {
     std::vector<float> rho;
-    if (const Attribute* density = density_attribute(part))
+    if (const AttributeView* density = density_attribute(part))
       for (float r : density->values)
         if (r > 0) rho.push_back(r);
     count[0] = rho.size();
@@ -402,7 +403,7 @@ Params resolve_frame_estimates_parts(const ParticleSet& part, std::size_t first,
   }
   if (p.velocity_weighted && p.velocity_reference == 0) {
     std::vector<float> speed;
-    if (const Attribute* velocity = velocity_attribute(part))
+    if (const AttributeView* velocity = velocity_attribute(part))
       for (std::size_t i = 0; i < velocity->size(); ++i)
         speed.push_back(length(Vec3f{velocity->values[3 * i], velocity->values[3 * i + 1], velocity->values[3 * i + 2]}));
     count[0] = speed.size();

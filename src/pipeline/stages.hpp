@@ -21,11 +21,11 @@ namespace meniscus {
 /// stages only), the extraction adds the vertices' order-key attribute (kOrderKeyAttribute,
 /// reconstruct_ordered).
 struct PipelineInput {
-  const ParticleSet& particles;
+  const ParticlesView& particles;
   const Params& params;
   const StagePlan& plan;
   const std::vector<float>& volumes;
-  const Attribute* velocity;
+  const AttributeView* velocity;
   bool order_keys = false;
   std::span<const uint32_t> coincident = {};
 };

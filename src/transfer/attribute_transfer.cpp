@@ -7,7 +7,7 @@
 
 namespace meniscus {
 
-Attribute transfer_attribute(const Attribute& attribute, const HashGrid& grid, std::span<const Vec3f> vertices,
+Attribute transfer_attribute(const AttributeView& attribute, const HashGrid& grid, std::span<const Vec3f> vertices,
                              float radius) {
   Attribute out;
   out.name = attribute.name;

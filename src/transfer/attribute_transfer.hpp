@@ -12,7 +12,7 @@ namespace meniscus {
 /// of the vertex, weights w = (1 − (r/radius)²)³; the nearest particle's value where none is
 /// inside. `grid` holds the particles; `attribute` is indexed by the original particle order
 /// (grid.order() maps sorted → original).
-Attribute transfer_attribute(const Attribute& attribute, const HashGrid& grid, std::span<const Vec3f> vertices,
+Attribute transfer_attribute(const AttributeView& attribute, const HashGrid& grid, std::span<const Vec3f> vertices,
                              float radius);
 
 }  // namespace meniscus

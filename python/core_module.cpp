@@ -5,7 +5,8 @@
 // Ownership: every array handed to Python shares memory with a C++ result (mesh or particle
 // set) that was moved into a heap object owned by a capsule; the capsule is the base of every
 // array of that result, so nothing is copied and the result lives as long as any of its arrays.
-// Inputs are copied once into the library's layout (float32 xyz triples).
+// Inputs are read in place when they are in the library's layout (C-ordered float32: xyz triples,
+// attribute rows), whatever protocol offers them, and converted once otherwise (InputArrays).
 //
 // Threads: the GIL is released while the library reads, writes or reconstructs; it is taken
 // back only at stage boundaries to call the progress callback and check for Ctrl-C.
@@ -88,7 +89,7 @@ py::dict mesh_to_python(meniscus::TriangleMesh&& moved) {
   return out;
 }
 
-// --- NumPy → C++ (one copy into the library's layout) --------------------------------------------
+// --- Python arrays → C++ (in place, or one conversion into the library's layout) -----------------
 
 std::string shape_string(const py::array& a) {
   std::string s = "(";

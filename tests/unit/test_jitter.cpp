@@ -10,7 +10,6 @@
 #include <cstdio>
 #include <cmath>
 #include <filesystem>
-#include <map>
 #include <string>
 
 #include "meniscus/io.hpp"
@@ -20,34 +19,8 @@
 namespace meniscus {
 namespace {
 
-// A sphere of radius r about c: an icosahedron subdivided `levels` times, its vertices on the sphere.
-TriangleMesh sphere(Vec3f c, float r, int levels = 5) {
-  const float t = (1 + std::sqrt(5.0f)) / 2;
-  std::vector<Vec3f> v{{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                       {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
-  std::vector<Triangle> f{{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-                          {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
-                          {3, 8, 9},  {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
-  for (int l = 0; l < levels; ++l) {
-    std::map<std::pair<uint32_t, uint32_t>, uint32_t> middle;
-    const auto mid = [&](uint32_t a, uint32_t b) {
-      const auto key = std::minmax(a, b);
-      auto [it, made] = middle.try_emplace({key.first, key.second}, uint32_t(v.size()));
-      if (made) v.push_back((v[a] + v[b]) * 0.5f);
-      return it->second;
-    };
-    std::vector<Triangle> next;
-    for (const Triangle& x : f) {
-      const uint32_t ab = mid(x[0], x[1]), bc = mid(x[1], x[2]), ca = mid(x[2], x[0]);
-      next.insert(next.end(), {Triangle{x[0], ab, ca}, Triangle{x[1], bc, ab}, Triangle{x[2], ca, bc}, Triangle{ab, bc, ca}});
-    }
-    f = std::move(next);
-  }
-  TriangleMesh m;
-  for (const Vec3f& p : v) m.vertices.push_back(c + normalized(p) * r);
-  m.triangles = f;
-  return m;
-}
+// A sphere of radius r about c (test::icosphere: an icosahedron subdivided five times).
+TriangleMesh sphere(Vec3f c, float r) { return test::icosphere(5, r, c); }
 
 TEST(Jitter, ASurfaceMovingSteadilyHasNoneAndOneThatSwellsHasTheSwell) {
   const Vec3f step{0.05f, 0.02f, 0};

@@ -172,7 +172,7 @@ struct InputArrays {
   std::size_t bytes_read_in_place = 0, bytes_copied = 0;
 };
 
-/// Reads the element at `row`, `col` of a 2-D array of float32/float64/integer as a float.
+/// Reads the element at `row`, `col` of a 2-D array of T as a float.
 template <class T>
 float element(const char* base, py::ssize_t row_stride, py::ssize_t col_stride, std::size_t row, std::size_t col) {
   T v;
@@ -181,8 +181,8 @@ float element(const char* base, py::ssize_t row_stride, py::ssize_t col_stride, 
 }
 
 /// `a` (n × k, or n when k == 1 and a is 1-D) converted into `out` as n·k floats, row-major,
-/// whatever its strides; float32, float64 and native integers directly, anything else through
-/// NumPy's conversion.
+/// whatever its strides; native float32, float64, int32 and int64 directly, anything else
+/// (booleans, other integers, float16, big-endian) through NumPy's conversion.
 void convert_rows(const py::array& a, std::size_t k, float* out) {
   const std::size_t n = std::size_t(a.shape(0));
   const char* base = static_cast<const char*>(a.data());
@@ -196,9 +196,9 @@ void convert_rows(const py::array& a, std::size_t k, float* out) {
   const bool native = a.dtype().attr("isnative").cast<bool>();
   if (native && kind == 'f' && a.itemsize() == 4) return run(float{});
   if (native && kind == 'f' && a.itemsize() == 8) return run(double{});
-  if (native && (kind == 'i' || kind == 'b') && a.itemsize() == 8) return run(std::int64_t{});
-  if (native && (kind == 'i' || kind == 'b') && a.itemsize() == 4) return run(std::int32_t{});
-  const FloatArray f = FloatArray::ensure(a);  // anything else (int16, uint, float16, big-endian…)
+  if (native && kind == 'i' && a.itemsize() == 8) return run(std::int64_t{});
+  if (native && kind == 'i' && a.itemsize() == 4) return run(std::int32_t{});
+  const FloatArray f = FloatArray::ensure(a);
   if (!f) throw py::type_error("an array NumPy cannot convert to float32");
   std::memcpy(out, f.data(), n * k * sizeof(float));
 }
@@ -343,10 +343,11 @@ meniscus::Params params_from_python(const py::dict& kwargs) {
 struct CallbackRaised {};
 
 /// Runs `surface` on the particles with the progress callback (None: only Ctrl-C is checked) and
-/// the GIL released; returns the mesh's arrays (no copies) and its stats as JSON text.
+/// the GIL released; returns the mesh's arrays (no copies), its stats as JSON text and the input
+/// bytes `staging` read in place and copied.
 template <class Surface>
 py::dict surface_with_progress(Surface&& surface, const meniscus::ParticlesView& particles,
-                               const py::object& progress) {
+                               const InputArrays& staging, const py::object& progress) {
   std::optional<py::error_already_set> pending;
   const meniscus::ProgressFn on_progress = [&](std::string_view stage, double fraction) {
     py::gil_scoped_acquire gil;
@@ -368,6 +369,8 @@ py::dict surface_with_progress(Surface&& surface, const meniscus::ParticlesView&
   std::string stats = meniscus::stats_to_json(result);
   py::dict out = mesh_to_python(std::move(result.mesh));
   out["stats"] = std::move(stats);
+  out["bytes_read_in_place"] = staging.bytes_read_in_place;
+  out["bytes_copied"] = staging.bytes_copied;
   return out;
 }
 
@@ -389,14 +392,11 @@ py::dict reconstruct(const py::handle& positions, const py::handle& attributes, 
   std::vector<py::object> keep;
   const meniscus::ParticlesView particles =
       particles_view(positions, attributes, meniscus::memory_limit(params.max_memory_gb), staging, keep);
-  py::dict out = surface_with_progress(
+  return surface_with_progress(
       [&](const meniscus::ParticlesView& view, const meniscus::ProgressFn& on_progress) {
         return meniscus::reconstruct(view, params, on_progress);
       },
-      particles, progress);
-  out["bytes_read_in_place"] = staging.bytes_read_in_place;
-  out["bytes_copied"] = staging.bytes_copied;
-  return out;
+      particles, staging, progress);
 }
 
 /// meniscus::Reconstructor with the buffers its converted inputs go through, kept between calls.
@@ -418,14 +418,11 @@ class PyReconstructor {
     } idle{busy_};
     std::vector<py::object> keep;
     const meniscus::ParticlesView particles = particles_view(positions, attributes, limit_, staging_, keep);
-    py::dict out = surface_with_progress(
+    return surface_with_progress(
         [&](const meniscus::ParticlesView& view, const meniscus::ProgressFn& on_progress) {
           return surface_(view, on_progress);
         },
-        particles, progress);
-    out["bytes_read_in_place"] = staging_.bytes_read_in_place;
-    out["bytes_copied"] = staging_.bytes_copied;
-    return out;
+        particles, staging_, progress);
   }
 
   std::size_t frames() const { return surface_.frames(); }

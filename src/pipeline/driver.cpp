@@ -275,8 +275,7 @@ Result reconstruct_keyed(const ParticlesView& all_particles, const Params& param
     if (boxed.size() == 0 && all_particles.size() > 0)
       throw InvalidParameter(fmt::format("particle_box: all {} particles are outside the box", all_particles.size()));
   }
-  const ParticlesView boxed_view = params.particle_box.empty() ? ParticlesView{} : ParticlesView(boxed);
-  const ParticlesView& given_particles = params.particle_box.empty() ? all_particles : boxed_view;
+  const ParticlesView given_particles = params.particle_box.empty() ? all_particles : ParticlesView(boxed);
   // A frame far from the origin is computed about a local one (and its clip box with it) and
   // written back where it was.
   const struct {
@@ -289,8 +288,7 @@ Result reconstruct_keyed(const ParticlesView& all_particles, const Params& param
     for (Vec3f& x : local.positions)
       x = Vec3f{float(double(x.x) - origin.x), float(double(x.y) - origin.y), float(double(x.z) - origin.z)};
   }
-  const ParticlesView local_view = origin.shifted() ? ParticlesView(local) : ParticlesView{};
-  const ParticlesView& particles = origin.shifted() ? local_view : given_particles;
+  const ParticlesView particles = origin.shifted() ? ParticlesView(local) : given_particles;
   Result result;
   Stats& stats = result.stats;
   stats.particles_outside_box = outside;
@@ -315,8 +313,7 @@ Result reconstruct_keyed(const ParticlesView& all_particles, const Params& param
     coincident = coincident_particles(bridged.positions.empty() ? particles : ParticlesView(bridged), resolved);
     return resolved;
   });
-  const ParticlesView bridged_view = bridged.positions.empty() ? ParticlesView{} : ParticlesView(bridged);
-  const ParticlesView& input = bridged.positions.empty() ? particles : bridged_view;
+  const ParticlesView input = bridged.positions.empty() ? particles : ParticlesView(bridged);
   if (!bridged.positions.empty()) velocity = velocity_attribute(input);
   stats.spacing_estimated = params.spacing == 0;
   stats.particles = particles.size();
@@ -328,8 +325,7 @@ Result reconstruct_keyed(const ParticlesView& all_particles, const Params& param
                                          ? particle_volumes(input, p.spacing, p.rest_density)
                                          : std::vector<float>{};
   const StagePlan plan = plan_stages(p);  // both backends run these stages, in run_stages' order
-  const ParticlesView moved_view = coincident.moved ? ParticlesView(*coincident.moved) : ParticlesView{};
-  const ParticlesView& surfaced = coincident.moved ? moved_view : input;
+  const ParticlesView surfaced = coincident.moved ? ParticlesView(*coincident.moved) : input;
   const PipelineInput in{surfaced, p, plan, volumes, velocity, keys != nullptr, coincident.first};
   if (keys != nullptr || !run_on_device(in, result, progress)) {
     stats.backend = "cpu";

@@ -38,6 +38,7 @@
 #include "meniscus/messages.hpp"
 #include "meniscus/parameters.hpp"
 #include "meniscus/reconstruct.hpp"
+#include "meniscus/temporal.hpp"
 
 namespace py = pybind11;
 
@@ -499,6 +500,47 @@ double estimate_spacing(const py::handle& positions) {
   return meniscus::estimate_spacing(particles);
 }
 
+/// Frame t's positions smoothed in time with frames t − 1 and t + 1 (meniscus/temporal.hpp); each
+/// frame is its N × 3 positions and its N ids. -> (positions float32 N×3, report dict)
+py::tuple temporal_smoothing(const py::handle& previous, const py::handle& previous_ids, const py::handle& current,
+                             const py::handle& current_ids, const py::handle& next, const py::handle& next_ids,
+                             double weight, double limit) {
+  const meniscus::Grant memory = meniscus::memory_limit(0);
+  InputArrays staging[3];
+  std::vector<py::object> keep;
+  meniscus::ParticlesView frames[3];
+  const std::pair<const py::handle*, const py::handle*> given[3] = {
+      {&previous, &previous_ids}, {&current, &current_ids}, {&next, &next_ids}};
+  const char* names[3][2] = {{"previous", "previous_ids"}, {"positions", "ids"}, {"next", "next_ids"}};
+  for (int k = 0; k < 3; ++k) {
+    frames[k].positions = positions_from_python(*given[k].first, names[k][0], memory, staging[k], keep);
+    const py::array id_array = numeric_array(*given[k].second, names[k][1]);
+    if (id_array.ndim() != 1 || std::size_t(id_array.shape(0)) != frames[k].size())
+      throw py::value_error(fmt::format("{} must have shape ({},), got {}", names[k][1], frames[k].size(),
+                                        shape_string(id_array)));
+    py::dict ids;
+    ids[meniscus::kParticleIdAttribute] = id_array;
+    frames[k].attributes =
+        attribute_views_from_python(ids, frames[k].size(), names[k][1], memory, staging[k], keep);
+  }
+  meniscus::TemporalReport report;
+  meniscus::ParticleSet out;
+  {
+    py::gil_scoped_release released;
+    out = meniscus::temporal_smoothing(frames[0], frames[1], frames[2], weight, limit, &report);
+  }
+  py::array_t<float> positions({py::ssize_t(out.size()), py::ssize_t(3)});
+  if (out.size() > 0) std::memcpy(positions.mutable_data(), out.positions.data(), out.size() * sizeof(meniscus::Vec3f));
+  py::dict r;
+  r["applied"] = report.applied;
+  r["skipped"] = report.skipped;
+  r["matched"] = report.matched;
+  r["clamped"] = report.clamped;
+  r["mean_shift"] = report.mean_shift;
+  r["max_shift"] = report.max_shift;
+  return py::make_tuple(positions, r);
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_core, m) {
@@ -544,6 +586,9 @@ PYBIND11_MODULE(_core, m) {
   m.def("write_mesh", &write_mesh, py::arg("path"), py::arg("vertices"), py::arg("triangles"), py::arg("normals"),
         py::arg("attributes"));
   m.def("estimate_spacing", &estimate_spacing, py::arg("positions"));
+  m.def("temporal_smoothing", &temporal_smoothing, py::arg("previous"), py::arg("previous_ids"), py::arg("positions"),
+        py::arg("ids"), py::arg("next"), py::arg("next_ids"), py::arg("weight"), py::arg("limit"),
+        "three frames' positions and ids -> (frame t's positions smoothed in time, report dict)");
   m.def("preset_names", &meniscus::preset_names);
   m.def("parameter_table", [] { return meniscus::parameter_table_json().dump(); },
         "the table of parameters as JSON text: keys, types, ranges, defaults, help");

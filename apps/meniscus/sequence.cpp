@@ -131,9 +131,21 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
     throw IoError(fmt::format("no file matches '{}': the frames are looked up by replacing the placeholder with "
                               "numbers (e.g. '{}')",
                               printable(a.input), printable(in.format(1))));
+  // Temporal smoothing reads the frames either side from disk, whether or not they are in the
+  // list: a frame's mesh is the same in any chunk of the sequence.
   const auto files_of = [&](int frame) {
-    return FrameFiles{in.format(frame), out->format(frame), stats ? stats->format(frame) : "",
-                      preview ? preview->format(frame) : "", field ? field->format(frame) : ""};
+    FrameFiles f{in.format(frame), out->format(frame), stats ? stats->format(frame) : "",
+                 preview ? preview->format(frame) : "", field ? field->format(frame) : ""};
+    if (a.params.temporal_smoothing > 0) {
+      for (const auto& [path, neighbour] : {std::pair{&f.previous, frame - 1}, std::pair{&f.next, frame + 1}}) {
+        const std::string name = in.format(neighbour);
+        if (std::filesystem::exists(name)) *path = name;
+        else if (f.no_neighbours.empty())
+          f.no_neighbours = fmt::format("frame {} is not on disk ({})", neighbour, printable(name));
+      }
+      if (!f.no_neighbours.empty()) f.previous.clear(), f.next.clear();
+    }
+    return f;
   };
   // Every frame's files before any work: an output pattern that names an input frame, or two
   // outputs that meet, are refused whole.
@@ -214,7 +226,8 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
   ProgressBar bar(!a.quiet, /*eta=*/true);
   std::mutex mutex;  // guards the bar, the report lines and the counters below
   std::vector<int> failed;
-  std::size_t done = 0, triangles = 0;
+  std::size_t done = 0, triangles = 0, smoothed = 0;
+  std::map<std::string, std::vector<int>> unsmoothed;  // why a frame was surfaced from its own positions
   std::atomic<std::size_t> next{0};
   std::atomic<bool> stop{false};
   SequenceFlicker flicker(frames.size());
@@ -242,6 +255,8 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
         std::lock_guard lock(mutex);
         ++done;
         triangles += r.stats.triangles;
+        if (r.stats.temporal.applied) ++smoothed;
+        else if (!r.stats.temporal.skipped.empty()) unsmoothed[r.stats.temporal.skipped].push_back(frame);
         record_flicker(i, &r.mesh, r.params.spacing);
         bar.update(fmt::format("frame {}", frame), double(done) / double(frames.size()));
       } catch (const std::exception& e) {
@@ -289,6 +304,19 @@ int run_sequence(const SurfaceArgs& given, const FramePattern& in) {
                                                                    "cap of {} d and count at it)",
                                                                    beyond_cap, vertices, kFlickerCapSpacings),
                                      flicker_seconds),
+                         kHelpColumns, kHelpColumns, 2));
+  }
+  if (!a.quiet && a.params.temporal_smoothing > 0 && ok > 0) {
+    std::string others;
+    for (auto& [why, list] : unsmoothed) {
+      std::sort(list.begin(), list.end());
+      others += fmt::format("; frame{} {}: {}", list.size() == 1 ? "" : "s", format_frame_ranges(list), why);
+    }
+    fmt::print(stderr, "{}\n",
+               wrap_text(fmt::format("temporal smoothing (w = {:g}, particles matched by '{}' in the frames either "
+                                     "side): {} of {} frames{}",
+                                     a.params.temporal_smoothing, kParticleIdAttribute, smoothed, ok,
+                                     others.empty() ? std::string() : "; from their own positions" + others),
                          kHelpColumns, kHelpColumns, 2));
   }
   std::vector<double> jitters;

@@ -171,6 +171,8 @@ void add_frame_files(std::vector<RunFile>& files, const FrameFiles& f) {
   files.push_back({f.stats, "--stats", true});
   files.push_back({f.preview, "--preview", true});
   files.push_back({f.field, "--save-field", true});
+  files.push_back({f.previous, "the previous frame", false});
+  files.push_back({f.next, "the next frame", false});
 }
 
 UpAxis preview_up_axis(const SurfaceArgs& a, const ParticleSet& particles, std::string_view format) {
@@ -184,7 +186,7 @@ Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, cons
                    std::optional<ReadFrame> preread, UpAxis* preview_up) {
   const auto t0 = std::chrono::steady_clock::now();
   ReadReport report;
-  const ParticleSet particles = preread ? std::move(preread->particles) : read_particles(f.input, read_options(a), &report);
+  ParticleSet particles = preread ? std::move(preread->particles) : read_particles(f.input, read_options(a), &report);
   if (preread) report.format = preread->format;
   const double read_seconds = preread ? preread->seconds : seconds_since(t0);
   if (verbose) {
@@ -203,7 +205,34 @@ Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, cons
       fmt::print(stderr, "estimated particle spacing {:.6g} (from the particle distances and density; --spacing sets it)\n",
                  params.spacing);
   }
+  // A sequence's frame: its particles smoothed in time with the frames either side, the shift
+  // at most r_inner / 2 (the limit's r_inner is the frame's as resolved).
+  TemporalReport temporal;
+  double temporal_seconds = -1;
+  if (params.temporal_smoothing > 0 && (!f.previous.empty() || !f.next.empty() || !f.no_neighbours.empty())) {
+    if (!f.no_neighbours.empty()) {
+      temporal.skipped = f.no_neighbours;
+    } else {
+      // A neighbour that does not read leaves the frame its own positions (in every chunk alike).
+      const auto tt = std::chrono::steady_clock::now();
+      ParticleSet before, after;
+      try {
+        before = read_particles(f.previous, read_options(a));
+        after = read_particles(f.next, read_options(a));
+      } catch (const std::exception& e) {
+        temporal.skipped = fmt::format("a neighbouring frame does not read ({})",
+                                       dynamic_cast<const std::bad_alloc*>(&e) ? "out of memory" : e.what());
+      }
+      if (temporal.skipped.empty()) {
+        const double limit = 0.5 * resolve_params(particles, params).r_inner;
+        particles = temporal_smoothing(before, particles, after, params.temporal_smoothing, limit, &temporal);
+      }
+      temporal_seconds = seconds_since(tt);
+    }
+  }
   Result result = reconstruct(particles, params, progress);
+  result.stats.temporal = temporal;
+  if (temporal_seconds >= 0) result.stats.stages.insert(result.stats.stages.begin(), StageTime{"temporal", temporal_seconds});
   result.stats.stages.insert(result.stats.stages.begin(), StageTime{"read", read_seconds});
   if (!a.estimated_on.empty()) {  // a sequence's frame: the estimates come from its first frame
     result.stats.spacing_estimated = true;

@@ -39,6 +39,9 @@ int run_surface(const CLI::App& cmd, SurfaceArgs& a, const MpiSession& mpi);
 /// The files of one frame (or of the single job).
 struct FrameFiles {
   std::string input, output, stats, preview, field;
+  /// A sequence's frame with temporal smoothing: the inputs of the frames either side (empty: not
+  /// on disk) and, when one is missing, why the frame is surfaced from its own positions.
+  std::string previous = {}, next = {}, no_neighbours = {};
 };
 
 /// A frame's particles read ahead of surfacing it, and the time the read took.

@@ -31,6 +31,7 @@ PARAMETERS = {
     'velocity_weighted': {'type': 'flag', 'default': False, 'help': 'smooth fast (splashing) fluid less than calm fluid; needs a velocity attribute (v, vel, velocity)'},
     'velocity_reference': {'type': 'number', 'default': 0.0, 'min': 0.0, 'min_open': False, 'unit': 'speed', 'help': 'speed at which the smoothing reaches its minimum', 'zero': 'the 95th percentile of the particle speeds'},
     'velocity_min_weight': {'type': 'number', 'default': 0.2, 'min': 0.0, 'min_open': True, 'max': 1.0, 'help': 'smallest smoothing factor of fast fluid'},
+    'temporal_smoothing': {'type': 'number', 'default': 0.25, 'min': 0.0, 'min_open': False, 'max': 0.5, 'help': "a sequence's frames: weight w of the frames either side in each particle's position, matched by the 'id' attribute — (1 − 2w)·x + w·(x₋ + x₊), the shift at most r_inner/2; calm water stops shimmering, steady motion is kept; 0: off (docs/method.md)"},
     'erode': {'type': 'number', 'default': 0.0, 'min': 0.0, 'min_open': False, 'unit': 'length', 'help': 'move the finished surface inwards along its normals (warns above h/2, counts folded triangles)'},
     'min_particles': {'type': 'integer', 'default': 0, 'min': 0.0, 'min_open': False, 'max': 1000000000.0, 'unit': 'particles', 'help': 'drop surface components enclosing fewer particles than this (strays, particles stuck in a wall)', 'zero': 'keep every droplet'},
     'particle_box': {'type': 'numbers', 'default': [], 'help': 'xmin,ymin,zmin,xmax,ymax,zmax: surface only the particles inside this box'},

@@ -91,6 +91,12 @@ struct Params {
   bool velocity_weighted = false;
   double velocity_reference = 0;     ///< v_ref; 0: the 95th percentile of the particle speeds
   double velocity_min_weight = 0.2;  ///< w_min, in (0, 1]
+  /// A sequence's frames (the CLI's `surface` of a pattern): each particle's position becomes
+  /// (1 − 2w)·x + w·(x₋ + x₊) with its positions x₋, x₊ in the frames either side, matched by the
+  /// "id" attribute, the shift at most r_inner / 2 (meniscus/temporal.hpp): the frame-to-frame
+  /// noise that makes calm water shimmer is filtered, steady motion kept. 0: off; a frame without
+  /// ids or without both neighbours on disk is surfaced from its own positions.
+  double temporal_smoothing = 0.25;
 
   /// xmin, ymin, zmin, xmax, ymax, zmax: only the particles inside this box (faces included) are
   /// surfaced, the others ignored before anything else (particles stuck in a tank wall, or a

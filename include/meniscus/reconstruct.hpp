@@ -14,6 +14,7 @@
 #include "meniscus/mesh.hpp"
 #include "meniscus/params.hpp"
 #include "meniscus/particles.hpp"
+#include "meniscus/temporal.hpp"
 
 namespace meniscus {
 
@@ -77,6 +78,9 @@ struct Stats {
   /// A sequence's frame: the file its frame-wide estimates (spacing, rest density, reference
   /// speed) were made on, when they were not given; empty otherwise.
   std::string estimated_on;
+  /// A sequence's frame: what its temporal smoothing with the frames either side did (the CLI's
+  /// `surface` of a pattern, meniscus/temporal.hpp); reconstruct() alone leaves it not applied.
+  TemporalReport temporal;
   SmoothingStats smoothing;
   std::vector<StageTime> stages;       ///< in pipeline order
   std::vector<DeviceStageCalls> device_calls;  ///< per stage, with the CUDA backend only

@@ -59,6 +59,7 @@ __all__ = [
     "read_mesh",
     "read_particles",
     "reconstruct",
+    "temporal_smoothing",
     "write_mesh",
     "__version__",
 ]
@@ -268,6 +269,29 @@ def estimate_spacing(positions):
     if isinstance(positions, Particles):
         positions = positions.positions
     return _core.estimate_spacing(positions)
+
+
+def temporal_smoothing(previous, current, next, *, weight=0.25, limit=None):
+    """Frame t's particle positions smoothed in time with frames t - 1 and t + 1, as ``meniscus
+    surface`` does for a sequence (docs/method.md "temporal"): each position x becomes
+    ``(1 - 2 weight) x + weight (x_prev + x_next)``, the same particle found in each frame by its id,
+    the shift at most ``limit`` (default: a quarter of the spacing estimated on ``current``, half of
+    r_inner with the default radii). Each frame is a :class:`Particles` with an ``id`` attribute or a
+    ``(positions, ids)`` pair. Returns ``(positions, report)``: float32 N×3 in ``current``'s order,
+    and a dict (``applied``, ``skipped`` — why not, ``matched``, ``clamped``, ``mean_shift``,
+    ``max_shift``). Frames whose ids are missing, not whole numbers below 2**24 or repeated come back
+    as they were, with the reason."""
+    def pair(frame, name):
+        if isinstance(frame, Particles):
+            if "id" not in frame.attributes:
+                raise ValueError(f"{name} has no 'id' attribute: the particles are matched by it")
+            return frame.positions, frame.attributes["id"]
+        positions, ids = frame
+        return positions, ids
+    (p0, i0), (p1, i1), (p2, i2) = pair(previous, "previous"), pair(current, "current"), pair(next, "next")
+    if limit is None:
+        limit = 0.25 * estimate_spacing(p1)
+    return _core.temporal_smoothing(p0, i0, p1, i1, p2, i2, float(weight), float(limit))
 
 
 def parameters():

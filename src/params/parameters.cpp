@@ -138,6 +138,11 @@ const std::vector<Entry>& entries() {
            "speed at which the smoothing reaches its minimum", MENISCUS_MEMBER(velocity_reference));
     number("velocity_min_weight", "smoothing", 0, 1, true, "", "", "smallest smoothing factor of fast fluid",
            MENISCUS_MEMBER(velocity_min_weight));
+    number("temporal_smoothing", "smoothing", 0, 0.5, false, "", "",
+           "a sequence's frames: weight w of the frames either side in each particle's position, matched by the "
+           "'id' attribute — (1 − 2w)·x + w·(x₋ + x₊), the shift at most r_inner/2; calm water stops shimmering, "
+           "steady motion is kept; 0: off (docs/method.md)",
+           MENISCUS_MEMBER(temporal_smoothing));
 
     // --- post-processing
     number("erode", "post-processing", 0, kUnbounded, false, "", "length",

@@ -64,6 +64,14 @@ std::string stats_to_json(const Result& result) {
                       {"device_copies", total.device_copies}, {"memsets", total.memsets}, {"waits", total.waits}};
     j["device_calls"] = calls;
   }
+  if (s.temporal.applied)
+    j["temporal_smoothing"] = {{"applied", true},
+                               {"matched", s.temporal.matched},
+                               {"clamped", s.temporal.clamped},
+                               {"mean_shift", s.temporal.mean_shift},
+                               {"max_shift", s.temporal.max_shift}};
+  else if (!s.temporal.skipped.empty())
+    j["temporal_smoothing"] = {{"applied", false}, {"skipped", s.temporal.skipped}};
   j["smoothing"] = {{"energy_start", s.smoothing.energy_start},
                     {"energy_final", s.smoothing.energy_final},
                     {"damped_vertices", s.smoothing.damped_vertices},

@@ -1,0 +1,135 @@
+// meniscus — a frame's particles smoothed in time with the frames either side (temporal.hpp).
+#include "meniscus/temporal.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/for_each.hpp"
+#include "common/primitives.hpp"
+#include "meniscus/errors.hpp"
+
+namespace meniscus {
+
+namespace {
+
+/// Ids are read as floats: whole numbers in [0, 2²⁴) are exact, larger ones may round onto one
+/// another.
+constexpr float kIdLimit = 16777216.0f;
+
+/// A frame's particles sorted by id: (id << 32 | index) keys, or why they cannot be.
+struct IdIndex {
+  std::vector<uint64_t> keys;
+  std::string problem;
+
+  /// The index of the particle with this id, or -1.
+  int64_t find(uint32_t id) const {
+    const auto it = std::lower_bound(keys.begin(), keys.end(), uint64_t(id) << 32);
+    return it != keys.end() && uint32_t(*it >> 32) == id ? int64_t(*it & 0xffffffffu) : -1;
+  }
+};
+
+/// The ids of a frame, checked: one component, whole numbers in [0, 2²⁴), no two alike.
+IdIndex index_ids(const ParticlesView& frame, const char* which) {
+  IdIndex x;
+  const AttributeView* ids = frame.find(kParticleIdAttribute);
+  if (ids == nullptr) {
+    x.problem = fmt::format("no '{}' attribute in the {} frame", kParticleIdAttribute, which);
+    return x;
+  }
+  if (ids->components != 1 || ids->size() != frame.size()) {
+    x.problem = fmt::format("the {} frame's '{}' attribute has {} components, not 1", which, kParticleIdAttribute,
+                            ids->components);
+    return x;
+  }
+  const std::size_t n = frame.size();
+  if (n >= (std::size_t(1) << 32)) {
+    x.problem = fmt::format("the {} frame has {} particles, more than ids are matched for", which, n);
+    return x;
+  }
+  x.keys.resize(n);
+  bool whole = true;
+  for (std::size_t i = 0; i < n; ++i) {
+    const float v = ids->values[i];
+    whole = whole && v >= 0 && v < kIdLimit && v == std::floor(v);
+    x.keys[i] = whole ? (uint64_t(uint32_t(v)) << 32) | uint64_t(i) : 0;
+  }
+  if (!whole) {
+    x.problem = fmt::format("the {} frame's ids are not all whole numbers from 0 to 2^24 − 1", which);
+    x.keys.clear();
+    return x;
+  }
+  sort(Host{}, x.keys.begin(), x.keys.end());
+  for (std::size_t i = 1; i < n; ++i)
+    if (x.keys[i] >> 32 == x.keys[i - 1] >> 32) {
+      x.problem = fmt::format("the {} frame has two particles with id {}", which, x.keys[i] >> 32);
+      x.keys.clear();
+      return x;
+    }
+  return x;
+}
+
+}  // namespace
+
+ParticleSet temporal_smoothing(const ParticlesView& previous, const ParticlesView& current, const ParticlesView& next,
+                               double weight, double limit, TemporalReport* report) {
+  if (!(weight >= 0 && weight <= 0.5))
+    throw InvalidParameter("temporal_smoothing", fmt::format("{:g}", weight), "must be a number from 0 to 0.5");
+  if (!(limit >= 0 && std::isfinite(limit)))
+    throw InvalidParameter(fmt::format("temporal smoothing: the shift's limit {:g} must be a finite number ≥ 0", limit));
+  previous.validate(), current.validate(), next.validate();
+  TemporalReport r;
+  ParticleSet out = current.copy();
+  const auto done = [&] {
+    if (report) *report = r;
+    return out;
+  };
+  if (weight == 0) {
+    r.skipped = "the weight is 0";
+    return done();
+  }
+  const IdIndex here = index_ids(current, "current");
+  IdIndex before, after;
+  if (here.problem.empty()) before = index_ids(previous, "previous");
+  if (here.problem.empty() && before.problem.empty()) after = index_ids(next, "next");
+  const std::string& problem = !here.problem.empty() ? here.problem : !before.problem.empty() ? before.problem : after.problem;
+  if (!problem.empty()) {
+    r.skipped = problem;
+    return done();
+  }
+  // Each particle's shift, in its own slot: the positions do not depend on the order of the work.
+  const AttributeView& ids = *current.find(kParticleIdAttribute);
+  const std::size_t n = current.size();
+  std::vector<float> shift(n, -1.0f);  // −1: not found in both neighbours
+  std::vector<uint8_t> cut(n, 0);
+  const float w = float(weight), lim = float(limit);
+  for_each_index(n, kElementGrain, [&](std::size_t i) {
+    const uint32_t id = uint32_t(ids.values[i]);
+    const int64_t a = before.find(id), b = after.find(id);
+    if (a < 0 || b < 0) return;
+    const Vec3f x = current.positions[i];
+    // (x₋ + x₊) first: the same bits with the frames' order reversed.
+    Vec3f s = ((previous.positions[std::size_t(a)] + next.positions[std::size_t(b)]) - x * 2.0f) * w;
+    float len = std::sqrt(length2(s));
+    if (len > lim) s = len > 0 ? s * (lim / len) : Vec3f{0, 0, 0}, len = lim, cut[i] = 1;
+    out.positions[i] = x + s;
+    shift[i] = len;
+  });
+  double sum = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (shift[i] < 0) continue;
+    ++r.matched;
+    sum += shift[i];
+    r.max_shift = std::max(r.max_shift, double(shift[i]));
+    r.clamped += cut[i];
+  }
+  r.applied = true;
+  r.mean_shift = r.matched > 0 ? sum / double(r.matched) : 0;
+  return done();
+}
+
+}  // namespace meniscus

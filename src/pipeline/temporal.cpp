@@ -21,13 +21,16 @@ namespace {
 /// another.
 constexpr float kIdLimit = 16777216.0f;
 
-/// A frame's particles sorted by id: (id << 32 | index) keys, or why they cannot be.
+/// Where each id of a frame is: a table over the ids (index + 1, 0: none) where they are no more
+/// than a few times the particles, else (id << 32 | index) keys sorted; or why neither can be.
 struct IdIndex {
+  std::vector<uint32_t> table;
   std::vector<uint64_t> keys;
   std::string problem;
 
   /// The index of the particle with this id, or -1.
   int64_t find(uint32_t id) const {
+    if (!table.empty()) return id < table.size() ? int64_t(table[id]) - 1 : -1;
     const auto it = std::lower_bound(keys.begin(), keys.end(), uint64_t(id) << 32);
     return it != keys.end() && uint32_t(*it >> 32) == id ? int64_t(*it & 0xffffffffu) : -1;
   }
@@ -47,29 +50,35 @@ IdIndex index_ids(const ParticlesView& frame, const char* which) {
     return x;
   }
   const std::size_t n = frame.size();
-  if (n >= (std::size_t(1) << 32)) {
-    x.problem = fmt::format("the {} frame has {} particles, more than ids are matched for", which, n);
+  float largest = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const float v = ids->values[i];
+    if (!(v >= 0 && v < kIdLimit && v == std::floor(v))) {
+      x.problem = fmt::format("the {} frame's ids are not all whole numbers from 0 to 2^24 − 1", which);
+      return x;
+    }
+    largest = std::max(largest, v);
+  }
+  const auto twice = [&](uint32_t id) {
+    x.problem = fmt::format("the {} frame has two particles with id {}", which, id);
+    x.table.clear(), x.keys.clear();
+    return x;
+  };
+  // Ids below 2^24, n below 2^22 where they are sparse: an index fits in 32 bits on either path.
+  if (std::size_t(largest) <= 4 * n + 65536) {
+    x.table.assign(std::size_t(largest) + 1, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+      uint32_t& slot = x.table[std::size_t(ids->values[i])];
+      if (slot != 0) return twice(uint32_t(ids->values[i]));
+      slot = uint32_t(i + 1);
+    }
     return x;
   }
   x.keys.resize(n);
-  bool whole = true;
-  for (std::size_t i = 0; i < n; ++i) {
-    const float v = ids->values[i];
-    whole = whole && v >= 0 && v < kIdLimit && v == std::floor(v);
-    x.keys[i] = whole ? (uint64_t(uint32_t(v)) << 32) | uint64_t(i) : 0;
-  }
-  if (!whole) {
-    x.problem = fmt::format("the {} frame's ids are not all whole numbers from 0 to 2^24 − 1", which);
-    x.keys.clear();
-    return x;
-  }
+  for (std::size_t i = 0; i < n; ++i) x.keys[i] = (uint64_t(uint32_t(ids->values[i])) << 32) | uint64_t(i);
   sort(Host{}, x.keys.begin(), x.keys.end());
   for (std::size_t i = 1; i < n; ++i)
-    if (x.keys[i] >> 32 == x.keys[i - 1] >> 32) {
-      x.problem = fmt::format("the {} frame has two particles with id {}", which, x.keys[i] >> 32);
-      x.keys.clear();
-      return x;
-    }
+    if (x.keys[i] >> 32 == x.keys[i - 1] >> 32) return twice(uint32_t(x.keys[i] >> 32));
   return x;
 }
 

@@ -145,6 +145,30 @@ TEST(TemporalSmoothing, FramesThatCannotBeMatchedAreLeftAsTheyAreAndSayWhy) {
   EXPECT_THROW(temporal_smoothing(a, b, c, 0.25, std::nan("")), InvalidParameter);
 }
 
+// Ids far apart (a Houdini emitter's over a long run) are matched through sorted keys instead of a
+// table over the ids: the same positions.
+TEST(TemporalSmoothing, SparseIdsGiveWhatDenseOnesGive) {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> u(-0.01f, 0.01f);
+  std::vector<Vec3f> e(3 * kN);
+  for (Vec3f& x : e) x = {u(rng), u(rng), u(rng)};
+  const auto at = [&](int f) { return [&, f](std::size_t id) { return rest(id) + e[std::size_t(f) * kN + id]; }; };
+  ParticleSet dense[3] = {frame(kN, at(0), 1), frame(kN, at(1), 2), frame(kN, at(2), 3)}, sparse[3];
+  for (int k = 0; k < 3; ++k) {
+    sparse[k] = dense[k];
+    for (float& id : sparse[k].attributes[1].values) id = id * 5000.0f + 7.0f;  // up to 1.5e7, below 2^24
+  }
+  TemporalReport a, b;
+  const ParticleSet x = temporal_smoothing(dense[0], dense[1], dense[2], 0.25, 1.0, &a);
+  const ParticleSet y = temporal_smoothing(sparse[0], sparse[1], sparse[2], 0.25, 1.0, &b);
+  EXPECT_EQ(a.matched, kN);
+  EXPECT_EQ(b.matched, kN);
+  EXPECT_EQ(std::memcmp(x.positions.data(), y.positions.data(), kN * sizeof(Vec3f)), 0);
+  sparse[1].attributes[1].values[5] = sparse[1].attributes[1].values[6];
+  temporal_smoothing(sparse[0], sparse[1], sparse[2], 0.25, 1.0, &b);
+  EXPECT_NE(b.skipped.find("two particles with id"), std::string::npos) << b.skipped;
+}
+
 TEST(TemporalSmoothing, TheSameOnAnyThreadCount) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> u(-0.01f, 0.01f);

@@ -143,6 +143,37 @@ TEST(CalmWater, SteadyMotionIsKeptAndEveryChunkGivesTheWholeRunsMeshes) {
   }
 }
 
+// A real SPlisHSPlasH frame between its neighbours (tests/data/sph_dambreak, frames 19-21: the
+// particles in another order in every file): every particle matched by id, the shifts small beside
+// d and the surface holding every particle of the file.
+TEST(CalmWater, ARealFrameIsMatchedByIdAndKeepsEveryParticleInside) {
+  test::TempDir dir;
+  std::string out;
+  const std::string command = fmt::format(
+      "{} surface '{}' -o '{}' --frames 20 --spacing 0.03 --stats '{}'", test::cli(),
+      test::data_file("sph_dambreak/ParticleData_Fluid_####.bgeo"), dir.file("m_####.ply"), dir.file("s_####.json"));
+  ASSERT_EQ(test::run_command(command, &out), 0) << out;
+  EXPECT_NE(joined(out).find("temporal smoothing (w = 0.25, particles matched by 'id' in the frames either side): 1 of "
+                             "1 frames"),
+            std::string::npos)
+      << out;
+  const auto stats = nlohmann::json::parse(bytes(dir.file("s_0020.json")))["temporal_smoothing"];
+  EXPECT_TRUE(stats["applied"].get<bool>());
+  EXPECT_EQ(stats["matched"], 32768);
+  const double d = 0.03;
+  std::printf("[ measured ] frame 20: mean shift %.4f d, largest %.4f d, %d cut to r_inner / 2\n",
+              stats["mean_shift"].get<double>() / d, stats["max_shift"].get<double>() / d, stats["clamped"].get<int>());
+  EXPECT_LT(stats["mean_shift"].get<double>(), 0.1 * d);
+  EXPECT_LE(stats["max_shift"].get<double>(), 0.25 * d * (1 + 1e-6));
+  ASSERT_EQ(test::run_command(fmt::format("{} inspect '{}' --particles '{}' --spacing 0.03 --json", test::cli(),
+                                          dir.file("m_0020.ply"),
+                                          test::data_file("sph_dambreak/ParticleData_Fluid_0020.bgeo")),
+                              &out),
+            0)
+      << out;
+  EXPECT_EQ(nlohmann::json::parse(out)["particles"]["outside_surface"], 0) << out;
+}
+
 TEST(CalmWater, FramesWithoutIdsAreSurfacedFromTheirOwnPositionsAndTheSummarySaysSo) {
   test::TempDir dir;
   std::string out;

@@ -212,6 +212,8 @@ Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, cons
   if (params.temporal_smoothing > 0 && (!f.previous.empty() || !f.next.empty() || !f.no_neighbours.empty())) {
     if (!f.no_neighbours.empty()) {
       temporal.skipped = f.no_neighbours;
+    } else if (particles.find(kParticleIdAttribute) == nullptr) {  // not worth reading the neighbours
+      temporal.skipped = fmt::format("no '{}' attribute in the current frame", kParticleIdAttribute);
     } else {
       // A neighbour that does not read leaves the frame its own positions (in every chunk alike).
       const auto tt = std::chrono::steady_clock::now();

@@ -178,13 +178,17 @@ TEST(CalmWater, FramesWithoutIdsAreSurfacedFromTheirOwnPositionsAndTheSummarySay
   test::TempDir dir;
   std::string out;
   const std::string command =
-      fmt::format("{} surface '{}' -o '{}' --frames 1-3", test::cli(), test::data_file("sequence/fluid_####.bgeo.sc"),
-                  dir.file("m_####.ply"));
+      fmt::format("{} surface '{}' -o '{}' --frames 1-3 --stats '{}'", test::cli(),
+                  test::data_file("sequence/fluid_####.bgeo.sc"), dir.file("m_####.ply"), dir.file("s_####.json"));
   ASSERT_EQ(test::run_command(command, &out), 0) << out;
   out = joined(out);
   EXPECT_NE(out.find("0 of 3 frames; from their own positions; frame 1: frame 0 is not on disk"), std::string::npos)
       << out;
   EXPECT_NE(out.find("frames 2-3: no 'id' attribute in the current frame"), std::string::npos) << out;
+  // Without ids of its own a frame does not read its neighbours.
+  const auto stats = nlohmann::json::parse(bytes(dir.file("s_0002.json")));
+  EXPECT_FALSE(stats["temporal_smoothing"]["applied"].get<bool>());
+  EXPECT_FALSE(stats["stages"].contains("temporal")) << stats["stages"];
   // A neighbour that does not read leaves the frame its own positions; the frame itself is surfaced.
   write_block(dir, [](int) { return Vec3f{0, 0, 0}; }, 0.05f);
   std::filesystem::resize_file(dir.file("block_0003.ply"), 200);

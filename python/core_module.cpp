@@ -524,13 +524,13 @@ py::tuple temporal_smoothing(const py::handle& previous, const py::handle& previ
         attribute_views_from_python(ids, frames[k].size(), names[k][1], memory, staging[k], keep);
   }
   meniscus::TemporalReport report;
-  meniscus::ParticleSet out;
+  std::vector<meniscus::Vec3f> smoothed;
   {
     py::gil_scoped_release released;
-    out = meniscus::temporal_smoothing(frames[0], frames[1], frames[2], weight, limit, &report);
+    smoothed = meniscus::temporal_smoothing(frames[0], frames[1], frames[2], weight, limit, &report);
   }
-  py::array_t<float> positions({py::ssize_t(out.size()), py::ssize_t(3)});
-  if (out.size() > 0) std::memcpy(positions.mutable_data(), out.positions.data(), out.size() * sizeof(meniscus::Vec3f));
+  auto [xyz, owner] = own(std::move(smoothed));  // the result's own memory, as a mesh's arrays are
+  const py::array positions = view(reinterpret_cast<const float*>(xyz->data()), xyz->size(), 3, owner);
   py::dict r;
   r["applied"] = report.applied;
   r["skipped"] = report.skipped;

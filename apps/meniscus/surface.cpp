@@ -227,7 +227,7 @@ Result surface_one(const SurfaceArgs& a, const FrameFiles& f, bool verbose, cons
       }
       if (temporal.skipped.empty()) {
         const double limit = 0.5 * resolve_params(particles, params).r_inner;
-        particles = temporal_smoothing(before, particles, after, params.temporal_smoothing, limit, &temporal);
+        particles.positions = temporal_smoothing(before, particles, after, params.temporal_smoothing, limit, &temporal);
       }
       temporal_seconds = seconds_since(tt);
     }

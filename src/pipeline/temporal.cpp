@@ -84,22 +84,23 @@ IdIndex index_ids(const ParticlesView& frame, const char* which) {
 
 }  // namespace
 
-ParticleSet temporal_smoothing(const ParticlesView& previous, const ParticlesView& current, const ParticlesView& next,
-                               double weight, double limit, TemporalReport* report) {
+std::vector<Vec3f> temporal_smoothing(const ParticlesView& previous, const ParticlesView& current,
+                                      const ParticlesView& next, double weight, double limit, TemporalReport* report) {
   if (!(weight >= 0 && weight <= 0.5))
     throw InvalidParameter("temporal_smoothing", fmt::format("{:g}", weight), "must be a number from 0 to 0.5");
   if (!(limit >= 0 && std::isfinite(limit)))
     throw InvalidParameter(fmt::format("temporal smoothing: the shift's limit {:g} must be a finite number ≥ 0", limit));
   previous.validate(), current.validate(), next.validate();
   TemporalReport r;
-  ParticleSet out = current.copy();
-  const auto done = [&] {
+  std::vector<Vec3f> out(current.positions.begin(), current.positions.end());
+  // Every exit sets *report and returns `out` itself (moved, not copied).
+  const auto tell = [&] {
     if (report) *report = r;
-    return out;
   };
   if (weight == 0) {
     r.skipped = "the weight is 0";
-    return done();
+    tell();
+    return out;
   }
   const IdIndex here = index_ids(current, "current");
   IdIndex before, after;
@@ -108,7 +109,8 @@ ParticleSet temporal_smoothing(const ParticlesView& previous, const ParticlesVie
   const std::string& problem = !here.problem.empty() ? here.problem : !before.problem.empty() ? before.problem : after.problem;
   if (!problem.empty()) {
     r.skipped = problem;
-    return done();
+    tell();
+    return out;
   }
   // Each particle's shift, in its own slot: the positions do not depend on the order of the work.
   const AttributeView& ids = *current.find(kParticleIdAttribute);
@@ -125,7 +127,7 @@ ParticleSet temporal_smoothing(const ParticlesView& previous, const ParticlesVie
     Vec3f s = ((previous.positions[std::size_t(a)] + next.positions[std::size_t(b)]) - x * 2.0f) * w;
     float len = std::sqrt(length2(s));
     if (len > lim) s = len > 0 ? s * (lim / len) : Vec3f{0, 0, 0}, len = lim, cut[i] = 1;
-    out.positions[i] = x + s;
+    out[i] = x + s;
     shift[i] = len;
   });
   double sum = 0;
@@ -138,7 +140,8 @@ ParticleSet temporal_smoothing(const ParticlesView& previous, const ParticlesVie
   }
   r.applied = true;
   r.mean_shift = r.matched > 0 ? sum / double(r.matched) : 0;
-  return done();
+  tell();
+  return out;
 }
 
 }  // namespace meniscus
